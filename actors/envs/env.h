@@ -1,0 +1,94 @@
+// The factored environment interface every simulator in coins implements.
+//
+// A state is a flat float vector: the factors of EnvSpec::factors laid out one after another,
+// each factor `instances x features` floats (instance-major). Actions are float vectors too:
+// a discrete action is one float holding the integer index. All values are in the env's own
+// units; FactorSpec::low/high give the normalisation bounds the learners use.
+//
+// Hot-path contract: Reset and Step write into caller-provided buffers of spec().state_dim()
+// floats and allocate nothing. Step validates the action first; an invalid action (out of
+// range, NaN, not an integer for a discrete space) returns an error and leaves the env exactly
+// as it was. Envs are deterministic: the same seed and actions give the same trajectory, also
+// after SaveState/RestoreState. An Env is used by one thread at a time.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+
+namespace coins::envs {
+
+struct FactorSpec {
+  std::string name;          // "Paddle", "Ball", "Block", "Gripper", ...
+  int features = 0;          // features per instance
+  int instances = 1;         // > 1 for multi-instance classes (Block, Obstacle)
+  std::vector<float> low;    // per-feature normalisation bounds, size features
+  std::vector<float> high;
+  std::vector<std::string> feature_names;  // e.g. {"y", "x", "vy", "vx", "attr"}
+  int size() const { return features * instances; }
+};
+
+struct ActionSpec {
+  bool discrete = true;
+  int n = 0;                 // number of discrete actions (discrete only)
+  int dim = 1;               // floats per action: 1 for discrete, d for continuous
+  std::vector<float> low;    // continuous bounds, size dim
+  std::vector<float> high;
+};
+
+// One ground-truth interaction the simulator can label, "Source->Target".
+struct InteractionPair {
+  std::string source;
+  std::string target;
+  std::string label() const { return source + "->" + target; }
+};
+
+struct EnvSpec {
+  std::string name;
+  std::vector<FactorSpec> factors;
+  ActionSpec action;
+  std::vector<InteractionPair> interactions;  // bit i of StepResult::interactions
+  int max_episode_steps = 0;                  // 0: no time limit
+
+  int state_dim() const;
+  // index of the factor with this name, or -1
+  int factor_index(const std::string& name) const;
+  // offset of factor i's first float in the state vector
+  int factor_offset(int i) const;
+};
+
+struct StepResult {
+  float reward = 0.0f;
+  bool done = false;        // the episode ended (terminal state)
+  bool truncated = false;   // the episode was cut by a time limit (state not terminal)
+  uint32_t interactions = 0;  // bit i set: spec().interactions[i] happened this step
+};
+
+class Env {
+ public:
+  virtual ~Env() = default;
+  virtual const EnvSpec& spec() const = 0;
+  // starts a new episode from the seed and writes the initial state
+  virtual void Reset(uint64_t seed, std::span<float> state) = 0;
+  // starts a new episode continuing the env's own random stream (after done/truncated)
+  virtual void ResetNext(std::span<float> state) = 0;
+  // validates the action, then advances one step and writes the next state
+  virtual Status Step(std::span<const float> action, std::span<float> next_state,
+                      StepResult* result) = 0;
+  // writes the current state without stepping
+  virtual void GetState(std::span<float> state) const = 0;
+  // full simulator state (including random generator) as bytes, and back
+  virtual std::vector<uint8_t> SaveState() const = 0;
+  virtual Status RestoreState(std::span<const uint8_t> bytes) = 0;
+};
+
+// names accepted by MakeEnv, in a stable order
+std::vector<std::string> EnvNames();
+// builds the env registered under name; the error lists the known names
+Result<std::unique_ptr<Env>> MakeEnv(const std::string& name);
+
+}  // namespace coins::envs

@@ -10,6 +10,10 @@
 // range, NaN, not an integer for a discrete space) returns an error and leaves the env exactly
 // as it was. Envs are deterministic: the same seed and actions give the same trajectory, also
 // after SaveState/RestoreState. An Env is used by one thread at a time.
+//
+// Episodes: after a step that returns done or truncated, Step returns an error until the
+// caller starts the next episode with ResetNext (or Reset). What persists across ResetNext is
+// env-specific (Breakout keeps its board across drops, as its lives).
 #pragma once
 
 #include <cstdint>

@@ -1,0 +1,47 @@
+#include "actors/envs/env.h"
+
+#include <fmt/format.h>
+
+#include "actors/envs/breakout.h"
+
+namespace coins::envs {
+
+int EnvSpec::state_dim() const {
+  int n = 0;
+  for (const FactorSpec& f : factors) n += f.size();
+  return n;
+}
+
+int EnvSpec::factor_index(const std::string& factor_name) const {
+  for (int i = 0; i < static_cast<int>(factors.size()); ++i)
+    if (factors[i].name == factor_name) return i;
+  return -1;
+}
+
+int EnvSpec::factor_offset(int i) const {
+  int off = 0;
+  for (int k = 0; k < i; ++k) off += factors[k].size();
+  return off;
+}
+
+namespace {
+
+constexpr BreakoutVariant kBreakouts[] = {
+    BreakoutVariant::kBase, BreakoutVariant::kSingle, BreakoutVariant::kHard, BreakoutVariant::kBig,
+    BreakoutVariant::kNeg,  BreakoutVariant::kCenter, BreakoutVariant::kProx};
+
+}  // namespace
+
+std::vector<std::string> EnvNames() {
+  std::vector<std::string> names;
+  for (BreakoutVariant v : kBreakouts) names.push_back(BreakoutName(v));
+  return names;
+}
+
+Result<std::unique_ptr<Env>> MakeEnv(const std::string& name) {
+  for (BreakoutVariant v : kBreakouts)
+    if (name == BreakoutName(v)) return std::unique_ptr<Env>(std::make_unique<BreakoutEnv>(v));
+  return Errorf("unknown env '{}'; known envs: {}", name, fmt::join(EnvNames(), ", "));
+}
+
+}  // namespace coins::envs

@@ -1,0 +1,289 @@
+#include "common/config/config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+namespace coins {
+namespace {
+
+// a scalar's text for error messages
+std::string Show(const YAML::Node& node) {
+  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  if (node.IsSequence()) return "a list";
+  if (node.IsMap()) return "a map";
+  return "nothing";
+}
+
+// reads the fields of one section from a YAML map, recording which keys it used
+class YamlReader final : public ConfigVisitor {
+ public:
+  YamlReader(const YAML::Node& map, std::string where) : map_(map), where_(std::move(where)) {}
+
+  void Int(std::string_view key, int64_t& value, int64_t min, int64_t max, std::string_view) override {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    int64_t parsed = 0;
+    if (!n.IsScalar() || !YAML::convert<int64_t>::decode(n, parsed)) {
+      Fail(key, "expected an integer, got " + Show(n));
+      return;
+    }
+    if (parsed < min || parsed > max) {
+      Fail(key, fmt::format("must be in [{}, {}], got {}", min, max, parsed));
+      return;
+    }
+    value = parsed;
+  }
+  void Float(std::string_view key, double& value, double min, double max, std::string_view) override {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    double parsed = 0;
+    if (!n.IsScalar() || !YAML::convert<double>::decode(n, parsed) || !std::isfinite(parsed)) {
+      Fail(key, "expected a finite number, got " + Show(n));
+      return;
+    }
+    if (parsed < min || parsed > max) {
+      Fail(key, fmt::format("must be in [{}, {}], got {}", min, max, parsed));
+      return;
+    }
+    value = parsed;
+  }
+  void Bool(std::string_view key, bool& value, std::string_view) override {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    bool parsed = false;
+    if (!n.IsScalar() || !YAML::convert<bool>::decode(n, parsed)) {
+      Fail(key, "expected true or false, got " + Show(n));
+      return;
+    }
+    value = parsed;
+  }
+  void String(std::string_view key, std::string& value, const std::vector<std::string>& choices,
+              std::string_view) override {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    if (!n.IsScalar()) {
+      Fail(key, "expected a string, got " + Show(n));
+      return;
+    }
+    const std::string& s = n.Scalar();
+    if (!choices.empty() && std::find(choices.begin(), choices.end(), s) == choices.end()) {
+      std::string list;
+      for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+      Fail(key, fmt::format("'{}' is not one of: {}", s, list));
+      return;
+    }
+    value = s;
+  }
+  void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    if (!n.IsSequence()) {
+      Fail(key, "expected a list of numbers, got " + Show(n));
+      return;
+    }
+    std::vector<double> parsed;
+    for (const auto& item : n) {
+      double x = 0;
+      if (!item.IsScalar() || !YAML::convert<double>::decode(item, x) || !std::isfinite(x)) {
+        Fail(key, "expected a list of finite numbers, found " + Show(item));
+        return;
+      }
+      parsed.push_back(x);
+    }
+    value = std::move(parsed);
+  }
+
+  // after visiting: any key of the map not used is unknown
+  Status Finish() {
+    if (!status_.ok()) return status_;
+    for (const auto& kv : map_) {
+      std::string key = kv.first.as<std::string>();
+      if (!used_.count(key)) {
+        std::string hint = ClosestMatch(key, fields_);
+        return Errorf("{}: unknown key '{}.{}'{}", origin_, where_, key,
+                      hint.empty() ? "" : " (did you mean '" + hint + "'?)");
+      }
+    }
+    return Status::Ok();
+  }
+  void set_origin(std::string origin) { origin_ = std::move(origin); }
+
+ private:
+  YAML::Node Take(std::string_view key) {
+    std::string k(key);
+    fields_.push_back(k);
+    if (!map_[k]) return YAML::Node(YAML::NodeType::Undefined);
+    used_.insert(k);
+    YAML::Node n = map_[k];
+    if (n.IsNull()) {
+      Fail(key, "has no value");
+      return YAML::Node(YAML::NodeType::Undefined);
+    }
+    return n;
+  }
+  void Fail(std::string_view key, const std::string& what) {
+    if (status_.ok()) status_ = Errorf("{}: {}.{}: {}", origin_, where_, key, what);
+  }
+
+  const YAML::Node& map_;
+  std::string where_;
+  std::string origin_;
+  std::set<std::string> used_;
+  std::vector<std::string> fields_;
+  Status status_;
+};
+
+// writes the fields of one section as YAML
+class YamlWriter final : public ConfigVisitor {
+ public:
+  explicit YamlWriter(YAML::Emitter& out) : out_(out) {}
+  void Int(std::string_view key, int64_t& value, int64_t, int64_t, std::string_view) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+  }
+  void Float(std::string_view key, double& value, double, double, std::string_view) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+  }
+  void Bool(std::string_view key, bool& value, std::string_view) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << value;
+  }
+  void String(std::string_view key, std::string& value, const std::vector<std::string>&,
+              std::string_view) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::DoubleQuoted << value;
+  }
+  void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << value;
+  }
+
+ private:
+  YAML::Emitter& out_;
+};
+
+size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] != b[j - 1])});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+const std::vector<std::string>& KnownConfigSections() {
+  static const std::vector<std::string> kSections = {"dds", "run", "actor", "replay", "learner",
+                                                     "orchestrator"};
+  return kSections;
+}
+
+std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates) {
+  std::string best;
+  size_t best_d = std::max<size_t>(2, word.size() / 3) + 1;
+  for (const auto& c : candidates) {
+    size_t d = EditDistance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  return best;
+}
+
+ConfigSection* ConfigLoader::Find(std::string_view name) {
+  for (auto& s : sections_)
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+Status ConfigLoader::LoadFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Errorf("config file '{}' cannot be read", path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return LoadText(text.str(), "config " + path);
+}
+
+Status ConfigLoader::LoadText(const std::string& text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    return Errorf("{}: not valid YAML at line {}: {}", origin, e.mark.line + 1, e.msg);
+  }
+  return LoadNode(root, origin);
+}
+
+Status ConfigLoader::LoadNode(const YAML::Node& root, const std::string& origin) {
+  if (root.IsNull()) return Status::Ok();  // an empty file changes nothing
+  if (!root.IsMap()) return Errorf("{}: expected a map of sections at the top level", origin);
+  const auto& known = KnownConfigSections();
+  for (const auto& kv : root) {
+    std::string name = kv.first.as<std::string>();
+    ConfigSection* section = Find(name);
+    if (!section) {
+      if (std::find(known.begin(), known.end(), name) != known.end()) continue;  // another process's
+      std::string hint = ClosestMatch(name, known);
+      return Errorf("{}: unknown section '{}'{}", origin, name,
+                    hint.empty() ? "" : " (did you mean '" + hint + "'?)");
+    }
+    if (kv.second.IsNull()) continue;
+    if (!kv.second.IsMap()) return Errorf("{}: section '{}' must be a map of keys", origin, name);
+    YamlReader reader(kv.second, name);
+    reader.set_origin(origin);
+    section->visit(reader);
+    COINS_RETURN_IF_ERROR(reader.Finish());
+  }
+  return Status::Ok();
+}
+
+Status ConfigLoader::ApplyOverride(const std::string& assignment) {
+  size_t eq = assignment.find('=');
+  size_t dot = assignment.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || dot + 1 == eq)
+    return Errorf("override '{}': expected section.key=value", assignment);
+  std::string section = assignment.substr(0, dot);
+  std::string key = assignment.substr(dot + 1, eq - dot - 1);
+  std::string value = assignment.substr(eq + 1);
+  if (!Find(section)) {
+    const auto& known = KnownConfigSections();
+    if (std::find(known.begin(), known.end(), section) != known.end()) return Status::Ok();
+    return Errorf("override '{}': unknown section '{}'", assignment, section);
+  }
+  YAML::Node root;
+  try {
+    root[section][key] = YAML::Load(value);
+  } catch (const YAML::Exception& e) {
+    return Errorf("override '{}': value is not valid YAML: {}", assignment, e.msg);
+  }
+  return LoadNode(root, "override " + assignment);
+}
+
+Status ConfigLoader::Validate() const {
+  for (const auto& s : sections_) COINS_RETURN_IF_ERROR(s.validate().WithContext("config: " + s.name));
+  return Status::Ok();
+}
+
+std::string ConfigLoader::Dump() const {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  for (const auto& s : sections_) {
+    out << YAML::Key << s.name << YAML::Value << YAML::BeginMap;
+    YamlWriter writer(out);
+    s.visit(writer);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace coins

@@ -1,0 +1,87 @@
+// Config: options structs loaded from a YAML file plus command-line overrides.
+//
+// Every component has one options struct with documented defaults. The struct lists its fields
+// once, in Visit(ConfigVisitor&), and checks cross-field rules in Validate(). From that one list
+// the loader reads YAML (rejecting unknown keys, wrong types and out-of-range values with a
+// one-line error that names the key), `--set section.key=value` overrides are applied, and the
+// effective config is printed.
+//
+//   struct ReplayOptions {
+//     int64_t capacity = 1'000'000;
+//     void Visit(ConfigVisitor& v) { v.Int("capacity", capacity, 1, 1LL << 34, "transitions per shard"); }
+//     Status Validate() const { return Status::Ok(); }
+//   };
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "common/status.h"
+
+namespace YAML {
+class Node;
+}
+
+namespace coins {
+
+class ConfigVisitor {
+ public:
+  virtual ~ConfigVisitor() = default;
+  virtual void Int(std::string_view key, int64_t& value, int64_t min, int64_t max,
+                   std::string_view doc) = 0;
+  virtual void Float(std::string_view key, double& value, double min, double max,
+                     std::string_view doc) = 0;
+  virtual void Bool(std::string_view key, bool& value, std::string_view doc) = 0;
+  // choices empty: any string
+  virtual void String(std::string_view key, std::string& value,
+                      const std::vector<std::string>& choices, std::string_view doc) = 0;
+  // a list of floats; empty allowed
+  virtual void FloatList(std::string_view key, std::vector<double>& value, std::string_view doc) = 0;
+};
+
+// A named section of the config file bound to an options struct. The options struct outlives it.
+struct ConfigSection {
+  std::string name;                                  // top-level key, e.g. "replay"
+  std::function<void(ConfigVisitor&)> visit;
+  std::function<Status()> validate;
+
+  template <typename Options>
+  static ConfigSection Of(std::string name, Options& options) {
+    return {std::move(name), [&options](ConfigVisitor& v) { options.Visit(v); },
+            [&options] { return options.Validate(); }};
+  }
+};
+
+// The sections that may appear in a coins config file. A process binds the sections it uses;
+// the others are allowed (another process reads them) but any other top-level key is an error.
+const std::vector<std::string>& KnownConfigSections();
+
+class ConfigLoader {
+ public:
+  explicit ConfigLoader(std::vector<ConfigSection> sections) : sections_(std::move(sections)) {}
+
+  // reads a YAML file into the bound sections; a missing or malformed file is an error
+  Status LoadFile(const std::string& path);
+  // reads YAML text (used by tests and by LoadFile); `origin` names the source in errors
+  Status LoadText(const std::string& text, const std::string& origin);
+  // applies one "section.key=value" override; the value is parsed as YAML
+  Status ApplyOverride(const std::string& assignment);
+  // runs every section's Validate()
+  Status Validate() const;
+  // the effective config as YAML text (every bound section, every field)
+  std::string Dump() const;
+
+ private:
+  Status LoadNode(const YAML::Node& root, const std::string& origin);
+  ConfigSection* Find(std::string_view name);
+  std::vector<ConfigSection> sections_;
+};
+
+// the closest candidate by edit distance, or "" when none is close
+std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates);
+
+}  // namespace coins

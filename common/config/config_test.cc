@@ -1,0 +1,119 @@
+#include "common/config/config.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "common/dds/dds_options.h"
+
+namespace coins {
+namespace {
+
+struct TestOptions {
+  int64_t capacity = 100;
+  double ratio = 0.5;
+  bool enabled = true;
+  std::string mode = "fast";
+  std::vector<double> mask = {1, 0};
+  void Visit(ConfigVisitor& v) {
+    v.Int("capacity", capacity, 1, 1000, "items");
+    v.Float("ratio", ratio, 0.0, 1.0, "fraction");
+    v.Bool("enabled", enabled, "on/off");
+    v.String("mode", mode, {"fast", "slow"}, "speed");
+    v.FloatList("mask", mask, "mask");
+  }
+  Status Validate() const {
+    if (mode == "slow" && capacity > 10) return Errorf("capacity {} too large for slow mode", capacity);
+    return Status::Ok();
+  }
+};
+
+struct Fixture : ::testing::Test {
+  TestOptions opts;
+  DdsOptions dds;
+  ConfigLoader loader{{ConfigSection::Of("replay", opts), ConfigSection::Of("dds", dds)}};
+};
+
+TEST_F(Fixture, LoadsValuesAndKeepsDefaults) {
+  ASSERT_TRUE(loader.LoadText("replay:\n  capacity: 7\n  mask: [0.5, 2]\ndds:\n  domain: 12\n", "t").ok());
+  EXPECT_EQ(opts.capacity, 7);
+  EXPECT_DOUBLE_EQ(opts.ratio, 0.5);
+  EXPECT_EQ(opts.mask, (std::vector<double>{0.5, 2}));
+  EXPECT_EQ(dds.domain, 12);
+  EXPECT_EQ(dds.discovery, "local");
+}
+
+TEST_F(Fixture, UnknownKeyNamesKeyAndSuggests) {
+  Status s = loader.LoadText("replay:\n  capcity: 7\n", "config x.yaml");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.message(), "config x.yaml: unknown key 'replay.capcity' (did you mean 'capacity'?)");
+  EXPECT_EQ(opts.capacity, 100);
+}
+
+TEST_F(Fixture, UnknownSectionIsAnErrorButOtherProcessSectionsAreAllowed) {
+  EXPECT_TRUE(loader.LoadText("learner:\n  anything: 1\n", "t").ok());
+  Status s = loader.LoadText("replai:\n  capacity: 1\n", "t");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("unknown section 'replai' (did you mean 'replay'?)"), std::string::npos);
+}
+
+TEST_F(Fixture, WrongTypesAndRanges) {
+  Status s = loader.LoadText("replay:\n  capacity: lots\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.capacity: expected an integer, got 'lots'");
+  s = loader.LoadText("replay:\n  capacity: 0\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.capacity: must be in [1, 1000], got 0");
+  s = loader.LoadText("replay:\n  capacity: -5\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.capacity: must be in [1, 1000], got -5");
+  s = loader.LoadText("replay:\n  ratio: .nan\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.ratio: expected a finite number, got '.nan'");
+  s = loader.LoadText("replay:\n  enabled: maybe\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.enabled: expected true or false, got 'maybe'");
+  s = loader.LoadText("replay:\n  mode: medium\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.mode: 'medium' is not one of: fast, slow");
+  s = loader.LoadText("replay:\n  mask: 3\n", "t");
+  EXPECT_EQ(s.message(), "t: replay.mask: expected a list of numbers, got '3'");
+  s = loader.LoadText("replay: [1, 2]\n", "t");
+  EXPECT_EQ(s.message(), "t: section 'replay' must be a map of keys");
+  s = loader.LoadText("replay:\n  capacity: [\n", "t");
+  EXPECT_NE(s.message().find("t: not valid YAML at line"), std::string::npos);
+  EXPECT_EQ(opts.capacity, 100);
+}
+
+TEST_F(Fixture, OverridesApplyAndAreChecked) {
+  ASSERT_TRUE(loader.ApplyOverride("replay.capacity=9").ok());
+  EXPECT_EQ(opts.capacity, 9);
+  ASSERT_TRUE(loader.ApplyOverride("replay.mask=[1,1,0]").ok());
+  EXPECT_EQ(opts.mask.size(), 3u);
+  EXPECT_EQ(loader.ApplyOverride("replay.capacity=x").message(),
+            "override replay.capacity=x: replay.capacity: expected an integer, got 'x'");
+  EXPECT_EQ(loader.ApplyOverride("capacity=3").message(), "override 'capacity=3': expected section.key=value");
+  EXPECT_EQ(loader.ApplyOverride("nope.capacity=3").message(), "override 'nope.capacity=3': unknown section 'nope'");
+  EXPECT_FALSE(loader.ApplyOverride("replay.nokey=3").ok());
+}
+
+TEST_F(Fixture, CrossFieldValidation) {
+  ASSERT_TRUE(loader.ApplyOverride("replay.mode=slow").ok());
+  Status s = loader.Validate();
+  EXPECT_EQ(s.message(), "config: replay: capacity 100 too large for slow mode");
+}
+
+TEST_F(Fixture, MissingFileIsAnError) {
+  Status s = loader.LoadFile("/nonexistent/coins.yaml");
+  EXPECT_EQ(s.message(), "config file '/nonexistent/coins.yaml' cannot be read");
+}
+
+TEST_F(Fixture, DumpRoundTrips) {
+  ASSERT_TRUE(loader.LoadText("replay:\n  capacity: 42\n  mode: slow\n", "t").ok());
+  std::string dumped = loader.Dump();
+  TestOptions other;
+  DdsOptions other_dds;
+  ConfigLoader again{{ConfigSection::Of("replay", other), ConfigSection::Of("dds", other_dds)}};
+  ASSERT_TRUE(again.LoadText(dumped, "dump").ok()) << dumped;
+  EXPECT_EQ(other.capacity, 42);
+  EXPECT_EQ(other.mode, "slow");
+  EXPECT_EQ(other.mask, opts.mask);
+}
+
+}  // namespace
+}  // namespace coins

@@ -1,0 +1,43 @@
+// DdsOptions: the "dds" section of the config, shared by every process.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "common/config/config.h"
+
+namespace coins {
+
+struct DdsOptions {
+  // DDS domain id; processes of one run share it, concurrent runs must differ
+  int64_t domain = 0;
+  // how participants find each other:
+  //   local     - this machine only: UDP on 127.0.0.1 with unicast initial peers, no multicast
+  //   multicast - standard SPDP multicast on every interface (a LAN cluster)
+  //   server    - a discovery server at discovery_server (a cluster across networks)
+  std::string discovery = "local";
+  std::string discovery_server = "127.0.0.1:11811";
+  // shared-memory transport segment per participant, in MiB (the default 0.5 MiB throttles
+  // large samples several-fold)
+  int64_t shm_segment_mb = 16;
+  // writer history depth, in batches, of the transition stream
+  int64_t transition_history = 32;
+  // seconds without discovery traffic after which a participant counts as gone
+  double lease_s = 4.0;
+
+  void Visit(ConfigVisitor& v) {
+    v.Int("domain", domain, 0, 232, "DDS domain id");
+    v.String("discovery", discovery, {"local", "multicast", "server"}, "discovery mode");
+    v.String("discovery_server", discovery_server, {}, "host:port of the discovery server");
+    v.Int("shm_segment_mb", shm_segment_mb, 1, 1024, "shared-memory segment size (MiB)");
+    v.Int("transition_history", transition_history, 2, 4096, "transition writer history (batches)");
+    v.Float("lease_s", lease_s, 0.5, 600, "participant lease duration (s)");
+  }
+  Status Validate() const {
+    if (discovery == "server" && discovery_server.find(':') == std::string::npos)
+      return Errorf("discovery_server '{}' must be host:port", discovery_server);
+    return Status::Ok();
+  }
+};
+
+}  // namespace coins

@@ -1,0 +1,111 @@
+#include "common/dds/node.h"
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+
+namespace coins::dds {
+
+using namespace eprosima::fastdds::dds;
+using eprosima::fastdds::rtps::SharedMemTransportDescriptor;
+using eprosima::fastdds::rtps::UDPv4TransportDescriptor;
+using eprosima::fastrtps::rtps::IPLocator;
+using eprosima::fastrtps::rtps::Locator_t;
+
+eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d) {
+  auto ns = d.count() < 0 ? 0 : d.count();
+  return eprosima::fastrtps::Duration_t(static_cast<int32_t>(ns / 1000000000), static_cast<uint32_t>(ns % 1000000000));
+}
+
+std::string ShardPartition(int64_t shard) { return "shard-" + std::to_string(shard); }
+
+Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std::string& name) {
+  DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  auto& builtin = qos.wire_protocol().builtin;
+  builtin.discovery_config.leaseDuration = ToDuration(std::chrono::duration_cast<std::chrono::nanoseconds>(
+      std::chrono::duration<double>(options.lease_s)));
+  builtin.discovery_config.leaseDuration_announcementperiod =
+      ToDuration(std::chrono::duration_cast<std::chrono::nanoseconds>(
+          std::chrono::duration<double>(options.lease_s / 4)));
+
+  // transports: shared memory with a large segment, plus UDP (loopback only in local mode)
+  qos.transport().use_builtin_transports = false;
+  auto shm = std::make_shared<SharedMemTransportDescriptor>();
+  shm->segment_size(static_cast<uint32_t>(options.shm_segment_mb) * 1024 * 1024);
+  qos.transport().user_transports.push_back(shm);
+  auto udp = std::make_shared<UDPv4TransportDescriptor>();
+  udp->maxInitialPeersRange = 64;
+  if (options.discovery == "local") udp->interfaceWhiteList.push_back("127.0.0.1");
+  qos.transport().user_transports.push_back(udp);
+
+  if (options.discovery == "server") {
+    auto colon = options.discovery_server.rfind(':');
+    Locator_t server;
+    server.kind = LOCATOR_KIND_UDPv4;
+    IPLocator::setIPv4(server, options.discovery_server.substr(0, colon));
+    IPLocator::setPhysicalPort(server, static_cast<uint16_t>(std::stoi(options.discovery_server.substr(colon + 1))));
+    eprosima::fastrtps::rtps::RemoteServerAttributes remote;
+    remote.ReadguidPrefix("44.53.00.5f.45.50.52.4f.53.49.4d.41");
+    remote.metatrafficUnicastLocatorList.push_back(server);
+    builtin.discovery_config.discoveryProtocol = eprosima::fastrtps::rtps::DiscoveryProtocol_t::CLIENT;
+    builtin.discovery_config.m_DiscoveryServers.push_back(remote);
+  }
+
+  DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(
+      static_cast<DomainId_t>(options.domain), qos);
+  if (!p) return Errorf("dds: cannot create a participant on domain {} (discovery '{}')", options.domain,
+                        options.discovery);
+  return std::unique_ptr<Node>(new Node(options, p));
+}
+
+Node::~Node() {
+  participant_->delete_contained_entities();
+  DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+Result<Topic*> Node::GetTopic(const std::string& topic, TypeSupport type) {
+  auto it = topics_.find(topic);
+  if (it != topics_.end()) return it->second;
+  if (type.register_type(participant_) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK)
+    return Errorf("dds: cannot register type {} for topic {}", type.get_type_name(), topic);
+  Topic* t = participant_->create_topic(topic, type.get_type_name(), TOPIC_QOS_DEFAULT);
+  if (!t) return Errorf("dds: cannot create topic {}", topic);
+  topics_[topic] = t;
+  return t;
+}
+
+Result<DataWriter*> Node::CreateWriter(const std::string& topic, TypeSupport type,
+                                       const DataWriterQos& qos, const std::string& partition) {
+  auto t = GetTopic(topic, type);
+  if (!t.ok()) return t.status();
+  Publisher*& pub = publishers_[partition];
+  if (!pub) {
+    PublisherQos pq = PUBLISHER_QOS_DEFAULT;
+    if (!partition.empty()) pq.partition().push_back(partition.c_str());
+    pub = participant_->create_publisher(pq);
+    if (!pub) return Errorf("dds: cannot create a publisher for partition '{}'", partition);
+  }
+  DataWriter* w = pub->create_datawriter(*t, qos);
+  if (!w) return Errorf("dds: cannot create a writer on {} (partition '{}')", topic, partition);
+  return w;
+}
+
+Result<DataReader*> Node::CreateReader(const std::string& topic, TypeSupport type,
+                                       const DataReaderQos& qos, const std::string& partition) {
+  auto t = GetTopic(topic, type);
+  if (!t.ok()) return t.status();
+  Subscriber*& sub = subscribers_[partition];
+  if (!sub) {
+    SubscriberQos sq = SUBSCRIBER_QOS_DEFAULT;
+    if (!partition.empty()) sq.partition().push_back(partition.c_str());
+    sub = participant_->create_subscriber(sq);
+    if (!sub) return Errorf("dds: cannot create a subscriber for partition '{}'", partition);
+  }
+  DataReader* r = sub->create_datareader(*t, qos);
+  if (!r) return Errorf("dds: cannot create a reader on {} (partition '{}')", topic, partition);
+  return r;
+}
+
+}  // namespace coins::dds

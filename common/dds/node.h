@@ -1,0 +1,143 @@
+// Node: one DDS participant of a coins process, with the transports of DdsOptions, and the
+// topics, publishers, subscribers, writers and readers it created. Destroying the Node deletes
+// every entity it made, in order.
+//
+// Writers and readers are returned as typed wrappers over DataWriter / DataReader; a publisher
+// or subscriber is made per partition (a transition writer for shard k uses partition
+// "shard-k"). Not thread-safe: create entities from one thread; the wrappers' Write/Take may
+// be used from the thread that owns them.
+#pragma once
+
+#include <chrono>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fastdds/dds/core/LoanableSequence.hpp>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+#include "common/dds/dds_options.h"
+#include "common/status.h"
+
+namespace coins::dds {
+
+namespace fdds = eprosima::fastdds::dds;
+
+eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d);
+// the partition name of replay shard k
+std::string ShardPartition(int64_t shard);
+
+template <typename T>
+class Writer {
+ public:
+  explicit Writer(fdds::DataWriter* w = nullptr) : w_(w) {}
+  // publishes a copy of the sample; false when the writer timed out on a full history
+  bool Write(const T& sample) { return w_->write(const_cast<T*>(&sample)); }
+  fdds::DataWriter* raw() const { return w_; }
+  // number of readers currently matched
+  int matched() const {
+    fdds::PublicationMatchedStatus s;
+    w_->get_publication_matched_status(s);
+    return s.current_count;
+  }
+  // waits until every sample written has been acknowledged by the matched readers
+  bool WaitAcked(std::chrono::nanoseconds timeout) {
+    return w_->wait_for_acknowledgments(ToDuration(timeout)) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
+  }
+
+ private:
+  fdds::DataWriter* w_;
+};
+
+template <typename T>
+class Reader {
+ public:
+  explicit Reader(fdds::DataReader* r = nullptr) : r_(r) {}
+  // waits up to timeout for unread data; true when there is some
+  bool Wait(std::chrono::nanoseconds timeout) { return r_->wait_for_unread_message(ToDuration(timeout)); }
+  // takes every available sample (copying), calling fn(sample, info) for valid data
+  template <typename Fn>
+  int TakeAll(Fn&& fn) {
+    int n = 0;
+    T sample;
+    fdds::SampleInfo info;
+    while (r_->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      fn(sample, info);
+      ++n;
+    }
+    return n;
+  }
+  // takes up to max samples by loan (zero-copy with data-sharing), calling fn(sample, info)
+  template <typename Fn>
+  int TakeLoaned(int max, Fn&& fn) {
+    fdds::LoanableSequence<T> data;
+    fdds::SampleInfoSeq infos;
+    if (r_->take(data, infos, max) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) return 0;
+    int n = 0;
+    for (fdds::LoanableCollection::size_type i = 0; i < infos.length(); ++i) {
+      if (!infos[i].valid_data) continue;
+      fn(data[i], infos[i]);
+      ++n;
+    }
+    r_->return_loan(data, infos);
+    return n;
+  }
+  fdds::DataReader* raw() const { return r_; }
+
+ private:
+  fdds::DataReader* r_;
+};
+
+class Node {
+ public:
+  // creates the participant; `name` identifies the process in DDS tools
+  static Result<std::unique_ptr<Node>> Create(const DdsOptions& options, const std::string& name);
+  ~Node();
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  template <typename PubSubType>
+  Result<Writer<typename PubSubType::type>> MakeWriter(const std::string& topic,
+                                                       const fdds::DataWriterQos& qos,
+                                                       const std::string& partition = "") {
+    auto w = CreateWriter(topic, fdds::TypeSupport(new PubSubType()), qos, partition);
+    if (!w.ok()) return w.status();
+    return Writer<typename PubSubType::type>(*w);
+  }
+  template <typename PubSubType>
+  Result<Reader<typename PubSubType::type>> MakeReader(const std::string& topic,
+                                                       const fdds::DataReaderQos& qos,
+                                                       const std::string& partition = "") {
+    auto r = CreateReader(topic, fdds::TypeSupport(new PubSubType()), qos, partition);
+    if (!r.ok()) return r.status();
+    return Reader<typename PubSubType::type>(*r);
+  }
+
+  fdds::DomainParticipant* participant() const { return participant_; }
+  const DdsOptions& options() const { return options_; }
+
+ private:
+  Node(const DdsOptions& options, fdds::DomainParticipant* p) : options_(options), participant_(p) {}
+  Result<fdds::Topic*> GetTopic(const std::string& topic, fdds::TypeSupport type);
+  Result<fdds::DataWriter*> CreateWriter(const std::string& topic, fdds::TypeSupport type,
+                                         const fdds::DataWriterQos& qos, const std::string& partition);
+  Result<fdds::DataReader*> CreateReader(const std::string& topic, fdds::TypeSupport type,
+                                         const fdds::DataReaderQos& qos, const std::string& partition);
+
+  DdsOptions options_;
+  fdds::DomainParticipant* participant_;
+  std::map<std::string, fdds::Topic*> topics_;
+  std::map<std::string, fdds::Publisher*> publishers_;
+  std::map<std::string, fdds::Subscriber*> subscribers_;
+};
+
+}  // namespace coins::dds

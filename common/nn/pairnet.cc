@@ -1,0 +1,171 @@
+#include "common/nn/pairnet.h"
+
+#include <cassert>
+#include <cmath>
+
+namespace coins::nn {
+
+Status PairNetOptions::Validate() const {
+  if (source_dim < 0 || instance_dim <= 0)
+    return Errorf("pairnet: source_dim {} must be >= 0 and instance_dim {} > 0", source_dim,
+                  instance_dim);
+  if (max_instances <= 0) return Errorf("pairnet: max_instances {} must be > 0", max_instances);
+  if (relative_dim < 0 || relative_dim > source_dim || relative_dim > instance_dim)
+    return Errorf("pairnet: relative_dim {} must be within [0, min(source_dim {}, instance_dim {})]",
+                  relative_dim, source_dim, instance_dim);
+  if (point_sizes.empty()) return Errorf("pairnet: point_sizes is empty");
+  for (int s : point_sizes)
+    if (s <= 0) return Errorf("pairnet: point size {} must be positive", s);
+  if (output_dim <= 0) return Errorf("pairnet: output_dim {} must be positive", output_dim);
+  return Status::Ok();
+}
+
+PairNet::PairNet(PairNetOptions options, uint64_t seed) : options_(std::move(options)) {
+  assert(options_.Validate().ok());
+  std::mt19937_64 rng(seed);
+  // same block order and init as an Mlp of sizes {point_in, point_sizes..., output_dim}
+  std::vector<int> sizes = {options_.point_input_dim()};
+  sizes.insert(sizes.end(), options_.point_sizes.begin(), options_.point_sizes.end());
+  sizes.push_back(options_.output_dim);
+  for (size_t l = 0; l + 1 < sizes.size(); ++l) {
+    int w = params_.Add(fmt::format("layer{}.w", l), sizes[l + 1], sizes[l]);
+    int b = params_.Add(fmt::format("layer{}.b", l), sizes[l + 1], 1);
+    float scale = 1.0f / std::sqrt(float(sizes[l]));
+    InitUniform(params_.Value(w), scale, &rng);
+    InitUniform(params_.Value(b), scale, &rng);
+  }
+  acts_.resize(num_point_layers() + 1);
+  deltas_.resize(num_point_layers());
+}
+
+const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>& source,
+                                        const Eigen::Ref<const Eigen::MatrixXf>& instances,
+                                        const Eigen::Ref<const Eigen::MatrixXf>& mask) {
+  const int n = options_.max_instances, ds = options_.source_dim, di = options_.instance_dim;
+  const int k = options_.relative_dim;
+  const Eigen::Index batch = source.cols();
+  assert(source.rows() == ds && instances.rows() == n * di && mask.rows() == n);
+  assert(instances.cols() == batch && mask.cols() == batch);
+
+  // build the points: column b * N + i = [s_a; s_b,i; s_a[0:k] - s_b,i[0:k]]
+  Eigen::MatrixXf& points = acts_[0];
+  points.resize(options_.point_input_dim(), n * batch);
+  present_.resize(size_t(n) * batch);
+  for (Eigen::Index b = 0; b < batch; ++b) {
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Index c = b * n + i;
+      present_[c] = mask(i, b) > 0.5f;
+      if (ds > 0) points.col(c).head(ds) = source.col(b);
+      points.col(c).segment(ds, di) = instances.col(b).segment(i * di, di);
+      if (k > 0)
+        points.col(c).tail(k) = source.col(b).head(k) - instances.col(b).segment(i * di, k);
+    }
+  }
+
+  // shared per-point MLP
+  for (int l = 0; l < num_point_layers(); ++l) {
+    auto w = params_.Value(2 * l);
+    auto bias = params_.Value(2 * l + 1);
+    Eigen::MatrixXf& out = acts_[l + 1];
+    out.resize(w.rows(), points.cols());
+    out.noalias() = w * acts_[l];
+    out.colwise() += bias.col(0);
+    ApplyActivation(options_.hidden, out);
+  }
+
+  // masked max-pool over instances, remembering the winner per feature
+  const Eigen::MatrixXf& h = acts_.back();
+  const Eigen::Index f = h.rows();
+  pooled_.setZero(f, batch);
+  argmax_.setConstant(f, batch, -1);
+  for (Eigen::Index b = 0; b < batch; ++b) {
+    bool any = false;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Index c = b * n + i;
+      if (!present_[c]) continue;
+      if (!any) {
+        pooled_.col(b) = h.col(c);
+        argmax_.col(b).setConstant(i);
+        any = true;
+        continue;
+      }
+      auto greater = h.col(c).array() > pooled_.col(b).array();
+      argmax_.col(b) = greater.select(Eigen::ArrayXi::Constant(f, i), argmax_.col(b));
+      pooled_.col(b) = pooled_.col(b).cwiseMax(h.col(c));
+    }
+  }
+
+  // dense layer after the pool
+  const int last = num_point_layers();
+  auto wd = params_.Value(2 * last);
+  auto bd = params_.Value(2 * last + 1);
+  out_.resize(wd.rows(), batch);
+  out_.noalias() = wd * pooled_;
+  out_.colwise() += bd.col(0);
+  ApplyActivation(options_.output, out_);
+  return out_;
+}
+
+void PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool accumulate) {
+  const int n = options_.max_instances;
+  const Eigen::Index batch = out_.cols();
+  assert(dout.rows() == out_.rows() && dout.cols() == batch);
+  const int last = num_point_layers();
+
+  // dense layer
+  out_delta_ = dout;
+  ActivationBackward(options_.output, out_, out_delta_);
+  auto gw = params_.Grad(2 * last);
+  auto gb = params_.Grad(2 * last + 1);
+  if (accumulate) {
+    gw.noalias() += out_delta_ * pooled_.transpose();
+    gb.col(0) += out_delta_.rowwise().sum();
+  } else {
+    gw.noalias() = out_delta_ * pooled_.transpose();
+    gb.col(0) = out_delta_.rowwise().sum();
+  }
+  pooled_grad_.resize(pooled_.rows(), batch);
+  pooled_grad_.noalias() = params_.Value(2 * last).transpose() * out_delta_;
+
+  // route the pooled gradient to the winning instance of each feature
+  Eigen::MatrixXf& dh = deltas_[last - 1];
+  dh.setZero(acts_.back().rows(), n * batch);
+  for (Eigen::Index b = 0; b < batch; ++b)
+    for (Eigen::Index r = 0; r < pooled_.rows(); ++r) {
+      const int i = argmax_(r, b);
+      if (i >= 0) dh(r, b * n + i) = pooled_grad_(r, b);
+    }
+  ActivationBackward(options_.hidden, acts_.back(), dh);
+
+  // shared per-point MLP
+  for (int l = last - 1; l >= 0; --l) {
+    const Eigen::MatrixXf& delta = deltas_[l];
+    auto w = params_.Value(2 * l);
+    auto pw = params_.Grad(2 * l);
+    auto pb = params_.Grad(2 * l + 1);
+    if (accumulate) {
+      pw.noalias() += delta * acts_[l].transpose();
+      pb.col(0) += delta.rowwise().sum();
+    } else {
+      pw.noalias() = delta * acts_[l].transpose();
+      pb.col(0) = delta.rowwise().sum();
+    }
+    if (l > 0) {
+      deltas_[l - 1].resize(w.cols(), delta.cols());
+      deltas_[l - 1].noalias() = w.transpose() * delta;
+      ActivationBackward(options_.hidden, acts_[l], deltas_[l - 1]);
+    }
+  }
+}
+
+int64_t PairNet::MacsPerSample() const {
+  int64_t macs = 0;
+  int in = options_.point_input_dim();
+  for (int s : options_.point_sizes) {
+    macs += int64_t(in) * s * options_.max_instances;
+    in = s;
+  }
+  return macs + int64_t(in) * options_.output_dim;
+}
+
+}  // namespace coins::nn

@@ -1,0 +1,82 @@
+// Pair-net behaviour: reduces to an MLP for one instance, respects the mask, is invariant to
+// the order of instances.
+#include <gtest/gtest.h>
+
+#include "common/nn/mlp.h"
+#include "common/nn/pairnet.h"
+
+namespace coins::nn {
+namespace {
+
+PairNetOptions Options(int instances, int relative) {
+  PairNetOptions o;
+  o.source_dim = 3;
+  o.instance_dim = 4;
+  o.max_instances = instances;
+  o.relative_dim = relative;
+  o.point_sizes = {16, 12};
+  o.output_dim = 5;
+  o.hidden = Activation::kRelu;
+  o.output = Activation::kTanh;
+  return o;
+}
+
+TEST(PairNet, OneInstanceEqualsMlpOnConcatenatedInput) {
+  PairNet pair(Options(1, 0), 3);
+  Mlp mlp({{7, 16, 12, 5}, Activation::kRelu, Activation::kTanh}, 99);
+  ASSERT_TRUE(pair.params().SameShape(mlp.params()));
+  mlp.params().values = pair.params().values;
+  Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 6), inst = Eigen::MatrixXf::Random(4, 6);
+  Eigen::MatrixXf mask = Eigen::MatrixXf::Ones(1, 6);
+  Eigen::MatrixXf cat(7, 6);
+  cat << src, inst;
+  Eigen::MatrixXf a = pair.Forward(src, inst, mask);
+  Eigen::MatrixXf b = mlp.Forward(cat);
+  EXPECT_TRUE(a.isApprox(b, 1e-6f)) << (a - b).norm();
+  // and the gradients agree too
+  Eigen::MatrixXf r = Eigen::MatrixXf::Random(5, 6);
+  pair.Backward(r);
+  mlp.Backward(r);
+  EXPECT_TRUE(pair.params().grads.isApprox(mlp.params().grads, 1e-5f));
+}
+
+TEST(PairNet, MaskedInstancesDoNotMatterAndOrderDoesNot) {
+  PairNet net(Options(3, 2), 5);
+  Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 2), inst = Eigen::MatrixXf::Random(12, 2);
+  Eigen::MatrixXf mask = Eigen::MatrixXf::Ones(3, 2);
+  mask(2, 0) = 0.0f;
+  Eigen::MatrixXf base = net.Forward(src, inst, mask);
+  // change the absent instance: output unchanged
+  Eigen::MatrixXf changed = inst;
+  changed.col(0).segment(8, 4).setConstant(50.0f);
+  EXPECT_EQ(net.Forward(src, changed, mask), base);
+  // swap instances 0 and 1: output unchanged
+  Eigen::MatrixXf swapped = inst;
+  swapped.col(1).segment(0, 4) = inst.col(1).segment(4, 4);
+  swapped.col(1).segment(4, 4) = inst.col(1).segment(0, 4);
+  EXPECT_TRUE(net.Forward(src, swapped, mask).isApprox(base, 1e-6f));
+  // a present instance does matter
+  Eigen::MatrixXf moved = inst;
+  moved.col(0).segment(0, 4).setConstant(3.0f);
+  EXPECT_FALSE(net.Forward(src, moved, mask).col(0).isApprox(base.col(0), 1e-3f));
+}
+
+TEST(PairNet, NoInstancePoolsToZero) {
+  PairNet net(Options(2, 0), 7);
+  Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 1), inst = Eigen::MatrixXf::Random(8, 1);
+  Eigen::MatrixXf mask = Eigen::MatrixXf::Zero(2, 1);
+  Eigen::MatrixXf out = net.Forward(src, inst, mask);
+  // the output is then tanh(bias of the dense layer)
+  Eigen::VectorXf expected = net.params().Value(5).col(0).array().tanh();
+  EXPECT_TRUE(out.col(0).isApprox(expected, 1e-6f));
+}
+
+TEST(PairNet, ValidateNamesTheProblem) {
+  PairNetOptions o = Options(2, 5);
+  Status s = o.Validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("relative_dim"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace coins::nn

@@ -57,6 +57,7 @@ class BatchBuilder {
                  uint16_t flags, uint8_t skill_level, uint32_t interactions);
   bool full() const { return rows_ >= max_rows_; }
   uint32_t rows() const { return rows_; }
+  uint32_t max_rows() const { return max_rows_; }
   // stamps n_rows and the payload hash; returns the hash
   uint64_t Finish();
 

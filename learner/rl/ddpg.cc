@@ -1,0 +1,98 @@
+#include "learner/rl/ddpg.h"
+
+#include <cassert>
+
+#include "learner/rl/exploration.h"
+
+namespace coins::rl {
+
+Status DdpgOptions::Validate() const {
+  if (obs_dim <= 0 || action_dim <= 0)
+    return Errorf("ddpg: obs_dim {} and action_dim {} must be > 0", obs_dim, action_dim);
+  for (int h : hidden)
+    if (h <= 0) return Errorf("ddpg: hidden size {} must be > 0", h);
+  if (!(actor_lr > 0.0f && critic_lr > 0.0f)) return Errorf("ddpg: learning rates must be > 0");
+  if (!(tau > 0.0f && tau <= 1.0f)) return Errorf("ddpg: tau {} not in (0, 1]", tau);
+  if (exploration_sigma < 0.0f) return Errorf("ddpg: exploration_sigma {} must be >= 0", exploration_sigma);
+  if (batch_size <= 0) return Errorf("ddpg: batch_size {} must be > 0", batch_size);
+  return Status::Ok();
+}
+
+Ddpg::Ddpg(DdpgOptions options) : options_(std::move(options)) {
+  assert(options_.Validate().ok());
+  const int od = options_.obs_dim, ad = options_.action_dim;
+  auto sizes = [&](int in, int out) {
+    std::vector<int> s = {in};
+    s.insert(s.end(), options_.hidden.begin(), options_.hidden.end());
+    s.push_back(out);
+    return s;
+  };
+  actor_ = nn::Mlp({sizes(od, ad), options_.activation, nn::Activation::kTanh}, options_.seed);
+  critic_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity},
+                    options_.seed + 1);
+  actor_target_ = actor_;
+  critic_target_ = critic_;
+  actor_adam_ = nn::Adam({.lr = options_.actor_lr, .clip_norm = options_.grad_clip},
+                         actor_.params().size());
+  critic_adam_ = nn::Adam({.lr = options_.critic_lr, .clip_norm = options_.grad_clip},
+                          critic_.params().size());
+}
+
+void Ddpg::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) {
+  sa_.resize(obs.rows() + act.rows(), obs.cols());
+  sa_.topRows(obs.rows()) = obs;
+  sa_.bottomRows(act.rows()) = act;
+}
+
+void Ddpg::Act(std::span<const float> obs, bool explore, std::mt19937_64* rng,
+               std::span<float> action) {
+  assert(int(obs.size()) == options_.obs_dim && int(action.size()) == options_.action_dim);
+  const Eigen::MatrixXf& mu =
+      actor_.Forward(Eigen::Map<const Eigen::MatrixXf>(obs.data(), obs.size(), 1));
+  for (size_t i = 0; i < action.size(); ++i) action[i] = mu(Eigen::Index(i), 0);
+  if (explore) AddGaussianNoise(action, options_.exploration_sigma, -1.0f, 1.0f, rng);
+}
+
+DdpgStats Ddpg::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
+  const int bs = batch.size(), ad = options_.action_dim;
+  const float inv_b = 1.0f / float(bs);
+  DdpgStats stats;
+
+  // target: r + discount * Q_target(s', mu_target(s'))
+  act_ = actor_target_.Forward(batch.next_obs);
+  Concat(batch.next_obs, act_);
+  y_ = batch.rewards.array() + batch.discounts.array() * critic_target_.Forward(sa_).array();
+
+  // critic
+  Concat(batch.obs, batch.actions);
+  d_ = critic_.Forward(sa_) - y_;
+  prio_ = d_.cwiseAbs();
+  stats.critic_loss = 0.5f * (d_.array().square() * batch.weights.array()).sum() * inv_b;
+  d_.array() *= batch.weights.array() * inv_b;
+  critic_.Backward(d_);
+  critic_adam_.Step(&critic_.params());
+
+  // actor: ascend Q(s, mu(s)) through the critic's input gradient
+  act_ = actor_.Forward(batch.obs);
+  Concat(batch.obs, act_);
+  stats.actor_loss = -critic_.Forward(sa_).mean();
+  da_ = critic_.Backward(Eigen::MatrixXf::Constant(1, bs, -inv_b), /*input_grad=*/true)
+            .bottomRows(ad);
+  actor_.Backward(da_);
+  actor_adam_.Step(&actor_.params());
+
+  nn::SoftUpdate(actor_.params(), options_.tau, &actor_target_.params());
+  nn::SoftUpdate(critic_.params(), options_.tau, &critic_target_.params());
+  if (priorities) *priorities = prio_;
+  return stats;
+}
+
+Result<DdpgStats> Ddpg::Train(BatchSource* source) {
+  COINS_RETURN_IF_ERROR(source->Sample(options_.batch_size, &batch_).WithContext("ddpg"));
+  DdpgStats stats = Update(batch_, &prio_);
+  if (!batch_.keys.empty())
+    source->UpdatePriorities(batch_.keys, {prio_.data(), size_t(prio_.size())});
+  return stats;
+}
+
+}  // namespace coins::rl

@@ -1,0 +1,154 @@
+// HER functions and the in-memory replay: goal tests, hindsight index choice, n-step returns
+// and relabelled rewards worked out by hand.
+#include <gtest/gtest.h>
+
+#include "learner/rl/her.h"
+#include "learner/rl/memory_replay.h"
+
+namespace coins::rl {
+namespace {
+
+TEST(Her, MaskedGoalAndDistances) {
+  std::vector<float> state = {10, 42, 0, 0, 1}, mask = {0, 1, 0, 0, 0}, goal(5), compact(5);
+  MaskedGoal(state, mask, goal);
+  EXPECT_EQ(goal, (std::vector<float>{0, 42, 0, 0, 0}));
+  EXPECT_EQ(GatherMasked(state, mask, compact), 1);
+  EXPECT_EQ(compact[0], 42.0f);
+  std::vector<float> a = {1.0f, 2.0f, 3.0f}, g = {1.5f, 1.0f, 0.0f}, m = {1, 1, 0};
+  EXPECT_FLOAT_EQ(GoalDistance(a, g, m, GoalNorm::kL1), 1.5f);
+  EXPECT_FLOAT_EQ(GoalDistance(a, g, m, GoalNorm::kLinf), 1.0f);
+  EXPECT_FLOAT_EQ(GoalDistance(a, g, {}, GoalNorm::kLinf), 3.0f);
+  EXPECT_TRUE(GoalReached(a, g, m, 1.0f, GoalNorm::kLinf));
+  EXPECT_FALSE(GoalReached(a, g, m, 1.0f, GoalNorm::kL1));
+  EXPECT_EQ(SkillReward(true), 0.0f);
+  EXPECT_EQ(SkillReward(false), -1.0f);
+}
+
+TEST(Her, HindsightIndexStaysInsideTheSegment) {
+  std::mt19937_64 rng(1);
+  EXPECT_EQ(SelectHindsightIndex(HerStrategy::kFinal, 12, 10, 20, &rng), 19);
+  EXPECT_EQ(SelectHindsightIndex(HerStrategy::kNone, 12, 10, 20, &rng), 12);
+  bool saw_t = false, saw_last = false;
+  for (int i = 0; i < 2000; ++i) {
+    const int64_t f = SelectHindsightIndex(HerStrategy::kFuture, 12, 10, 20, &rng);
+    ASSERT_GE(f, 12);
+    ASSERT_LT(f, 20);
+    saw_t |= f == 12;
+    saw_last |= f == 19;
+    const int64_t e = SelectHindsightIndex(HerStrategy::kEpisode, 12, 10, 20, &rng);
+    ASSERT_GE(e, 10);
+    ASSERT_LT(e, 20);
+  }
+  EXPECT_TRUE(saw_t && saw_last);
+  EXPECT_FALSE(ParseHerStrategy("past").ok());
+  EXPECT_EQ(*ParseHerStrategy("final"), HerStrategy::kFinal);
+}
+
+// a 1-d walk: obs = position, achieved goal = next position
+void AddWalk(MemoryReplay* replay, std::vector<float> positions, float goal, bool end_segment) {
+  for (size_t i = 0; i + 1 < positions.size(); ++i) {
+    float obs = positions[i], next = positions[i + 1], act = 1.0f;
+    ReplayStep s;
+    s.obs = {&obs, 1};
+    s.next_obs = {&next, 1};
+    s.action = {&act, 1};
+    s.goal = {&goal, 1};
+    s.achieved = {&next, 1};
+    s.segment_end = end_segment && i + 2 == positions.size();
+    replay->Add(s);
+  }
+}
+
+TEST(MemoryReplay, NStepReturnsWithOriginalGoals) {
+  MemoryReplayOptions o;
+  o.obs_dim = 1;
+  o.goal_dim = 1;
+  o.n_step = 3;
+  o.gamma = 0.5f;
+  o.goal_epsilon = 0.1f;
+  o.her = HerStrategy::kNone;
+  MemoryReplay replay(o);
+  // positions 0,1,2,3,4 with goal 3: steps 0,1 miss; step 2 reaches 3 (terminal)
+  AddWalk(&replay, {0, 1, 2, 3, 4}, 3.0f, true);
+  Batch batch;
+  ASSERT_TRUE(replay.Sample(256, &batch).ok());
+  bool seen[4] = {};
+  for (int b = 0; b < batch.size(); ++b) {
+    const int t = int(batch.keys[size_t(b)]);
+    seen[t] = true;
+    EXPECT_EQ(batch.obs(1, b), 3.0f);  // the goal is appended
+    switch (t) {
+      case 0:  // -1, -0.5, then the reach (0) at k = 2: terminal
+        EXPECT_FLOAT_EQ(batch.rewards(0, b), -1.5f);
+        EXPECT_FLOAT_EQ(batch.discounts(0, b), 0.0f);
+        EXPECT_EQ(batch.next_obs(0, b), 3.0f);
+        break;
+      case 1:
+        EXPECT_FLOAT_EQ(batch.rewards(0, b), -1.0f);
+        EXPECT_FLOAT_EQ(batch.discounts(0, b), 0.0f);
+        break;
+      case 2:
+        EXPECT_FLOAT_EQ(batch.rewards(0, b), 0.0f);
+        EXPECT_FLOAT_EQ(batch.discounts(0, b), 0.0f);
+        break;
+      case 3:  // 3 -> 4 moves away from the goal; the window ends with the segment
+        EXPECT_FLOAT_EQ(batch.rewards(0, b), -1.0f);
+        EXPECT_FLOAT_EQ(batch.discounts(0, b), 0.5f);
+        EXPECT_EQ(batch.next_obs(0, b), 4.0f);
+        break;
+    }
+  }
+  EXPECT_TRUE(seen[0] && seen[1] && seen[2] && seen[3]);
+}
+
+TEST(MemoryReplay, FinalStrategyRelabelsWithTheSegmentsLastAchievedGoal) {
+  MemoryReplayOptions o;
+  o.obs_dim = 1;
+  o.goal_dim = 1;
+  o.n_step = 1;
+  o.goal_epsilon = 0.1f;
+  o.her = HerStrategy::kFinal;
+  o.her_ratio = 1.0f;
+  MemoryReplay replay(o);
+  AddWalk(&replay, {0, 1, 2}, 9.0f, true);   // segment A ends at 2
+  AddWalk(&replay, {5, 6, 7}, 9.0f, false);  // segment B still open, last achieved 7
+  Batch batch;
+  ASSERT_TRUE(replay.Sample(200, &batch).ok());
+  for (int b = 0; b < batch.size(); ++b) {
+    const int t = int(batch.keys[size_t(b)]);
+    const float goal = batch.obs(1, b);
+    EXPECT_EQ(goal, t < 2 ? 2.0f : 7.0f) << t;
+    const bool last = t == 1 || t == 3;
+    EXPECT_FLOAT_EQ(batch.rewards(0, b), last ? 0.0f : -1.0f) << t;
+    EXPECT_FLOAT_EQ(batch.discounts(0, b), last ? 0.0f : 0.99f) << t;
+  }
+}
+
+TEST(MemoryReplay, RingKeepsTheNewestSteps) {
+  MemoryReplayOptions o;
+  o.obs_dim = 1;
+  o.capacity = 4;
+  MemoryReplay replay(o);
+  for (int i = 0; i < 10; ++i) {
+    float obs = float(i), next = float(i + 1), act = 0.0f;
+    ReplayStep s;
+    s.obs = {&obs, 1};
+    s.next_obs = {&next, 1};
+    s.action = {&act, 1};
+    s.reward = float(i);
+    replay.Add(s);
+  }
+  EXPECT_EQ(replay.size(), 4);
+  Batch batch;
+  ASSERT_TRUE(replay.Sample(64, &batch).ok());
+  for (int b = 0; b < batch.size(); ++b) {
+    EXPECT_GE(batch.obs(0, b), 6.0f);
+    EXPECT_EQ(batch.rewards(0, b), batch.obs(0, b));
+  }
+  MemoryReplayOptions bad = o;
+  bad.n_step = 0;
+  EXPECT_FALSE(bad.Validate().ok());
+}
+
+}  // namespace
+}  // namespace coins::rl

@@ -35,11 +35,11 @@ DataReaderQos TransitionReaderQos(const DdsOptions& options) {
   q.reliability().kind = RELIABLE_RELIABILITY_QOS;
   q.durability().kind = VOLATILE_DURABILITY_QOS;
   q.history().kind = KEEP_ALL_HISTORY_QOS;
-  // room for every actor's full writer history
-  int32_t depth = static_cast<int32_t>(options.transition_history) * 8;
-  q.resource_limits().max_samples = depth;
-  q.resource_limits().max_instances = 256;
-  q.resource_limits().max_samples_per_instance = static_cast<int32_t>(options.transition_history) * 2;
+  // one instance per actor (actor_id is the key), each with room for its writer's full history
+  int32_t per_actor = static_cast<int32_t>(options.transition_history) * 2;
+  q.resource_limits().max_instances = 1024;
+  q.resource_limits().max_samples_per_instance = per_actor;
+  q.resource_limits().max_samples = 1024 * per_actor;
   q.resource_limits().allocated_samples = static_cast<int32_t>(options.transition_history);
   q.data_sharing().automatic();
   q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;

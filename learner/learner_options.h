@@ -1,0 +1,17 @@
+// LearnerOptions: the "learner" section of the config. The learner's training settings join
+// here as the chain is built.
+#pragma once
+
+#include "common/config/config.h"
+
+namespace coins {
+
+struct LearnerOptions {
+  // seconds between heartbeats and progress lines
+  double status_period_s = 1.0;
+
+  void Visit(ConfigVisitor& v) { v.Float("status_period_s", status_period_s, 0.05, 3600, "status period (s)"); }
+  Status Validate() const { return Status::Ok(); }
+};
+
+}  // namespace coins

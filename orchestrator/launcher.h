@@ -1,0 +1,30 @@
+// `coins run`: starts a whole run on one machine as child processes (replay shards, learner,
+// orchestrator, actors), shows live progress from the DDS status topics, and stops every child
+// cleanly on Ctrl-C, when the step budget is reached, or when one child dies (saying which
+// and why).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace coins {
+
+struct RunFlags {
+  std::string config;
+  int64_t actors = -1;       // -1: from the config
+  int64_t shards = -1;
+  int64_t steps = -1;
+  std::string env;
+  std::string dir;
+  std::vector<std::string> overrides;
+  bool quiet = false;        // no progress lines
+};
+
+// adds the `run` subcommand to the coins CLI; its exit code goes to *exit_code
+void AddRunCommand(CLI::App& app, int* exit_code);
+// runs; returns the process exit code
+int RunLocal(const RunFlags& flags);
+
+}  // namespace coins

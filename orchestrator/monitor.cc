@@ -1,0 +1,129 @@
+#include "orchestrator/monitor.h"
+
+#include <unistd.h>
+
+#include <iostream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "common/process.h"
+#include "orchestrator/status_collector.h"
+
+namespace coins {
+
+namespace {
+
+struct MonitorFlags {
+  std::string config;
+  int64_t domain = -1;
+  double seconds = 0;
+  bool json = false;
+};
+
+double Age(const StatusView::Clock::time_point& t) {
+  return std::chrono::duration<double>(StatusView::Clock::now() - t).count();
+}
+
+std::string Table(const StatusView& v) {
+  std::ostringstream out;
+  out << fmt::format("{:<16} {:<13} {:>8} {:>10} {:>6}\n", "process", "role", "pid", "uptime_s", "seen");
+  for (const auto& [name, h] : v.heartbeats)
+    out << fmt::format("{:<16} {:<13} {:>8} {:>10.1f} {:>5.1f}s{}\n", name, h.sample.role(), h.sample.pid(),
+                       h.sample.uptime_s(), Age(h.received), Age(h.received) > 5 ? "  (silent)" : "");
+  out << fmt::format("\n{:<8} {:<18} {:>6} {:>12} {:>12} {:>10} {:>10}\n", "actor", "env", "shard", "steps",
+                     "steps/s", "episodes", "return");
+  for (const auto& [id, a] : v.actors)
+    out << fmt::format("{:<8} {:<18} {:>6} {:>12} {:>12.0f} {:>10} {:>10.2f}\n", id, a.sample.env(),
+                       a.sample.shard(), a.sample.steps(), a.sample.steps_per_s(), a.sample.episodes(),
+                       a.sample.mean_episode_return());
+  out << fmt::format("\n{:<8} {:>12} {:>12} {:>7} {:>12} {:>6} {:>6} {:>8}\n", "shard", "size", "capacity", "fill",
+                     "insert/s", "dups", "gaps", "rejected");
+  for (const auto& [id, s] : v.shards) {
+    const auto& r = s.sample;
+    double fill = r.capacity() ? 100.0 * double(r.size()) / double(r.capacity()) : 0.0;
+    out << fmt::format("{:<8} {:>12} {:>12} {:>6.1f}% {:>12.0f} {:>6} {:>6} {:>8}\n", id, r.size(), r.capacity(), fill,
+                       r.insert_rate(), r.duplicates(), r.gaps(), r.rejected());
+  }
+  if (v.chain) {
+    const auto& c = v.chain->sample;
+    out << fmt::format("\nchain: phase {}, env steps {}, {} links\n", c.phase(), c.env_steps(), c.links().size());
+    for (const auto& l : c.links())
+      out << fmt::format("  {}->{} score {:.2f} {} success {:.2f}\n", l.source(), l.target(), l.score(), l.state(),
+                         l.skill_success());
+  }
+  return out.str();
+}
+
+nlohmann::json Json(const StatusView& v) {
+  nlohmann::json j;
+  j["processes"] = nlohmann::json::array();
+  for (const auto& [name, h] : v.heartbeats)
+    j["processes"].push_back({{"name", name}, {"role", h.sample.role()}, {"pid", h.sample.pid()},
+                              {"state", h.sample.state()}, {"seen_s_ago", Age(h.received)}});
+  j["actors"] = nlohmann::json::array();
+  for (const auto& [id, a] : v.actors)
+    j["actors"].push_back({{"actor_id", id}, {"env", a.sample.env()}, {"shard", a.sample.shard()},
+                           {"steps", a.sample.steps()}, {"steps_per_s", a.sample.steps_per_s()},
+                           {"transitions_published", a.sample.transitions_published()}});
+  j["shards"] = nlohmann::json::array();
+  for (const auto& [id, s] : v.shards)
+    j["shards"].push_back({{"shard_id", id}, {"size", s.sample.size()}, {"capacity", s.sample.capacity()},
+                           {"inserted_transitions", s.sample.inserted_transitions()},
+                           {"insert_rate", s.sample.insert_rate()}, {"rejected", s.sample.rejected()}});
+  if (v.chain) j["chain"] = {{"phase", v.chain->sample.phase()}, {"env_steps", v.chain->sample.env_steps()}};
+  return j;
+}
+
+int RunMonitor(const MonitorFlags& f) {
+  DdsOptions dds;
+  ConfigLoader loader({ConfigSection::Of("dds", dds)});
+  Status s = f.config.empty() ? Status::Ok() : loader.LoadFile(f.config);
+  if (s.ok() && f.domain >= 0) s = loader.ApplyOverride(fmt::format("dds.domain={}", f.domain));
+  if (!s.ok()) {
+    std::cerr << "coins monitor: " << s.message() << "\n";
+    return 2;
+  }
+  InstallStopSignals();
+  SetupLogging("coins-monitor", "warn");
+  auto node = dds::Node::Create(dds, "coins-monitor");
+  if (!node.ok()) {
+    std::cerr << "coins monitor: " << node.status().message() << "\n";
+    return 1;
+  }
+  auto collector = StatusCollector::Start(**node);
+  if (!collector.ok()) {
+    std::cerr << "coins monitor: " << collector.status().message() << "\n";
+    return 1;
+  }
+  bool tty = isatty(STDOUT_FILENO) && !f.json;
+  auto start = std::chrono::steady_clock::now();
+  while (!StopRequested()) {
+    bool last = SleepUnlessStopped(std::chrono::seconds(1)) ||
+                (f.seconds > 0 && std::chrono::steady_clock::now() - start >= std::chrono::duration<double>(f.seconds));
+    StatusView v = (*collector)->Snapshot();
+    if (f.json) {
+      if (last) std::cout << Json(v).dump() << std::endl;
+    } else {
+      if (tty) std::cout << "\x1b[H\x1b[2J";
+      std::cout << fmt::format("coins monitor, domain {}\n\n", dds.domain) << Table(v) << std::endl;
+    }
+    if (last) break;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void AddMonitorCommand(CLI::App& app, int* exit_code) {
+  auto flags = std::make_shared<MonitorFlags>();
+  CLI::App* m = app.add_subcommand("monitor", "Show a live table of every coins process in the DDS domain.");
+  m->add_option("--config", flags->config, "YAML config file (its dds section is used)")->check(CLI::ExistingFile);
+  m->add_option("--domain", flags->domain, "DDS domain id (overrides the config)")->check(CLI::Range(0, 232));
+  m->add_option("--seconds", flags->seconds, "stop after this many seconds (0: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+  m->add_flag("--json", flags->json, "print one JSON object of the final view instead of tables");
+  m->callback([flags, exit_code] { *exit_code = RunMonitor(*flags); });
+}
+
+}  // namespace coins

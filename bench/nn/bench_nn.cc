@@ -1,0 +1,176 @@
+// coins-bench-nn: how fast the learning core trains, against the machine's GEMM rate.
+//
+// For an MLP 20-256-256-256-8 at batch 256 and a pair-net over 100 instances at batch 128
+// (point MLP 128-128-128-256-1024, max-pool, 256 dense), one update = Forward + Backward +
+// Adam step. Counted FLOPs are the matrix products only: forward 2 B MACs, backward the weight
+// gradients (2 B MACs) and the input gradients of every layer but the first. The baseline runs
+// exactly those products as raw Eigen GEMMs on preallocated matrices at the same shapes in the
+// same repetition; the figure is the ratio. Each figure is the median over repetitions.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "common/figures.h"
+#include "common/nn/adam.h"
+#include "common/nn/mlp.h"
+#include "common/nn/pairnet.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// seconds per call of fn, running it for at least min_seconds after one warm-up call
+double TimePerCall(const std::function<void()>& fn, double min_seconds) {
+  fn();
+  int calls = 0;
+  const auto start = Clock::now();
+  double elapsed = 0.0;
+  do {
+    fn();
+    ++calls;
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  } while (elapsed < min_seconds);
+  return elapsed / calls;
+}
+
+// the GEMMs of one update: per layer (out x in weights, `cols` columns) forward W X,
+// weight gradient D X^T, and input gradient W^T D when the layer is not the first
+class GemmBaseline {
+ public:
+  void AddLayer(int in, int out, int cols, bool input_grad) {
+    Layer l;
+    l.w = Eigen::MatrixXf::Random(out, in);
+    l.x = Eigen::MatrixXf::Random(in, cols);
+    l.z = Eigen::MatrixXf::Zero(out, cols);
+    l.d = Eigen::MatrixXf::Random(out, cols);
+    l.gw = Eigen::MatrixXf::Zero(out, in);
+    l.dx = Eigen::MatrixXf::Zero(in, cols);
+    l.input_grad = input_grad;
+    flops_ += 2.0 * double(in) * out * cols * (input_grad ? 3.0 : 2.0);
+    layers_.push_back(std::move(l));
+  }
+  void Run() {
+    for (Layer& l : layers_) l.z.noalias() = l.w * l.x;
+    for (Layer& l : layers_) {
+      l.gw.noalias() = l.d * l.x.transpose();
+      if (l.input_grad) l.dx.noalias() = l.w.transpose() * l.d;
+    }
+  }
+  double flops() const { return flops_; }
+
+ private:
+  struct Layer {
+    Eigen::MatrixXf w, x, z, d, gw, dx;
+    bool input_grad = false;
+  };
+  std::vector<Layer> layers_;
+  double flops_ = 0.0;
+};
+
+struct Samples {
+  std::vector<double> updates_per_s, gflops, matmul_gflops, ratio;
+};
+
+void Record(coins::Figures* f, const std::string& prefix, Samples s) {
+  f->AddMedian(prefix + "_updates_per_s", s.updates_per_s, "updates/s");
+  f->AddMedian(prefix + "_gflops", s.gflops, "GFLOP/s");
+  f->AddMedian(prefix + "_matmul_gflops", s.matmul_gflops, "GFLOP/s");
+  f->AddMedian(prefix + "_flop_ratio", s.ratio, "ratio");
+}
+
+Samples BenchMlp(int reps, double min_seconds) {
+  using namespace coins::nn;
+  const int batch = 256;
+  const std::vector<int> sizes = {20, 256, 256, 256, 8};
+  Mlp net({sizes, Activation::kRelu, Activation::kIdentity}, 1);
+  Adam adam({.lr = 1e-4f}, net.params().size());
+  Eigen::MatrixXf x = Eigen::MatrixXf::Random(sizes.front(), batch);
+  Eigen::MatrixXf dout = Eigen::MatrixXf::Random(sizes.back(), batch) * 1e-3f;
+  GemmBaseline gemm;
+  for (size_t l = 0; l + 1 < sizes.size(); ++l) gemm.AddLayer(sizes[l], sizes[l + 1], batch, l > 0);
+  auto update = [&] {
+    net.Forward(x);
+    net.Backward(dout);
+    adam.Step(&net.params());
+  };
+  Samples s;
+  for (int r = 0; r < reps; ++r) {
+    const double t_net = TimePerCall(update, min_seconds);
+    const double t_mm = TimePerCall([&] { gemm.Run(); }, min_seconds);
+    s.updates_per_s.push_back(1.0 / t_net);
+    s.gflops.push_back(gemm.flops() / t_net * 1e-9);
+    s.matmul_gflops.push_back(gemm.flops() / t_mm * 1e-9);
+    s.ratio.push_back(t_mm / t_net);
+  }
+  return s;
+}
+
+Samples BenchPairNet(int reps, double min_seconds) {
+  using namespace coins::nn;
+  const int batch = 128, instances = 100;
+  PairNetOptions o;
+  o.source_dim = 5;  // a Breakout factor [y, x, vy, vx, attr]
+  o.instance_dim = 5;
+  o.max_instances = instances;
+  o.relative_dim = 2;
+  PairNet net(o, 1);
+  Adam adam({.lr = 1e-4f}, net.params().size());
+  Eigen::MatrixXf src = Eigen::MatrixXf::Random(o.source_dim, batch);
+  Eigen::MatrixXf inst = Eigen::MatrixXf::Random(o.instance_dim * instances, batch);
+  Eigen::MatrixXf mask = Eigen::MatrixXf::Ones(instances, batch);
+  Eigen::MatrixXf dout = Eigen::MatrixXf::Random(o.output_dim, batch) * 1e-3f;
+  GemmBaseline gemm;
+  int in = o.point_input_dim();
+  for (size_t l = 0; l < o.point_sizes.size(); ++l) {
+    gemm.AddLayer(in, o.point_sizes[l], batch * instances, l > 0);
+    in = o.point_sizes[l];
+  }
+  gemm.AddLayer(in, o.output_dim, batch, true);
+  auto update = [&] {
+    net.Forward(src, inst, mask);
+    net.Backward(dout);
+    adam.Step(&net.params());
+  };
+  Samples s;
+  for (int r = 0; r < reps; ++r) {
+    const double t_net = TimePerCall(update, min_seconds);
+    const double t_mm = TimePerCall([&] { gemm.Run(); }, min_seconds);
+    s.updates_per_s.push_back(1.0 / t_net);
+    s.gflops.push_back(gemm.flops() / t_net * 1e-9);
+    s.matmul_gflops.push_back(gemm.flops() / t_mm * 1e-9);
+    s.ratio.push_back(t_mm / t_net);
+  }
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool json = false;
+  int reps = 5;
+  double min_seconds = 0.5;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--json") {
+      json = true;
+    } else if (arg == "--reps" && i + 1 < argc) {
+      reps = std::max(1, std::atoi(argv[++i]));
+    } else if (arg == "--quick") {
+      reps = 1;
+      min_seconds = 0.05;
+    } else {
+      std::fprintf(stderr, "usage: coins-bench-nn [--json] [--reps N] [--quick]\n");
+      return 2;
+    }
+  }
+  coins::Figures figures;
+  Record(&figures, "mlp", BenchMlp(reps, min_seconds));
+  Record(&figures, "pairnet", BenchPairNet(reps, min_seconds));
+  figures.Print(json);
+  return 0;
+}

@@ -72,6 +72,7 @@ BreakoutEnv::BreakoutEnv(BreakoutVariant variant) : variant_(variant) {
   spec_.factors.push_back(ObjectFactor("Paddle", 1, -1.0f, 1.0f));
   spec_.factors.push_back(ObjectFactor("Ball", 1, -1.0f, 1.0f));
   spec_.factors.push_back(ObjectFactor("Block", NumBlocks(variant), -1.0f, 1.0f));
+  spec_.factors.back().multi_instance = true;
   if (variant == BreakoutVariant::kProx) spec_.factors.push_back(ObjectFactor("Target", 1, -1.0f, 1.0f));
   spec_.factors.push_back(ScalarFactor("Done", 0.0f, 1.0f, "done"));
   spec_.factors.push_back(ScalarFactor("Reward", -10.0f, 5.0f, "reward"));

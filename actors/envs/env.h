@@ -30,6 +30,7 @@ struct FactorSpec {
   std::string name;          // "Paddle", "Ball", "Block", "Gripper", ...
   int features = 0;          // features per instance
   int instances = 1;         // > 1 for multi-instance classes (Block, Obstacle)
+  bool multi_instance = false;  // a class of instances (Block, Obstacle), even with 1 instance
   std::vector<float> low;    // per-feature normalisation bounds, size features
   std::vector<float> high;
   std::vector<std::string> feature_names;  // e.g. {"y", "x", "vy", "vx", "attr"}

@@ -44,7 +44,10 @@ PushingEnv::PushingEnv(const mjModel* m, bool easy)
   spec_.factors.push_back(Vec3("Action", 1, {-1, -1, -1}, {1, 1, 1}));
   spec_.factors.push_back(Vec3("Gripper", 1, {-0.2f, -0.2f, 0.015f}, {0.2f, 0.2f, 0.215f}));
   spec_.factors.push_back(Vec3("Block", 1, {-0.25f, -0.25f, 0.0f}, {0.25f, 0.25f, 0.1f}));
-  if (!easy) spec_.factors.push_back(Vec3("Obstacle", kRegions, {-0.15f, -0.15f, 0.0f}, {0.15f, 0.15f, 0.05f}));
+  if (!easy) {
+    spec_.factors.push_back(Vec3("Obstacle", kRegions, {-0.15f, -0.15f, 0.0f}, {0.15f, 0.15f, 0.05f}));
+    spec_.factors.back().multi_instance = true;
+  }
   spec_.factors.push_back(Vec3("Target", 1, {-0.15f, -0.15f, 0.0f}, {0.15f, 0.15f, 0.05f}));
   for (const char* n : {"Done", "Reward"}) {
     FactorSpec f;

@@ -96,14 +96,15 @@ int ReplayMain(int argc, char** argv) {
   heartbeat->Publish("running");
   spdlog::info("shard {} listening on partition {}", id, dds::ShardPartition(id));
 
+  auto take = [&] {
+    return reader->TakeLoaned(64, [&](const msg::TransitionBatch& b, const eprosima::fastdds::dds::SampleInfo&) {
+      std::string why;
+      if (shard.Receive(b, &why) == Shard::Outcome::kRejected && rejected_logged++ < 20)
+        spdlog::warn("rejected: {}", why);
+    });
+  };
   while (!StopRequested()) {
-    if (reader->Wait(std::chrono::milliseconds(50))) {
-      reader->TakeLoaned(64, [&](const msg::TransitionBatch& b, const eprosima::fastdds::dds::SampleInfo&) {
-        std::string why;
-        if (shard.Receive(b, &why) == Shard::Outcome::kRejected && rejected_logged++ < 20)
-          spdlog::warn("rejected: {}", why);
-      });
-    }
+    if (reader->Wait(std::chrono::milliseconds(50))) take();
     auto now = std::chrono::steady_clock::now();
     if (now - last >= period) {
       double dt = std::chrono::duration<double>(now - last).count();
@@ -115,6 +116,9 @@ int ReplayMain(int argc, char** argv) {
     }
   }
 
+  // store what was already delivered before leaving
+  while (take() > 0) {
+  }
   heartbeat->Publish("stopping");
   FillStats(shard, 0.0, stats);
   stats_writer->Write(stats);

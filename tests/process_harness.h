@@ -1,0 +1,66 @@
+// Helpers for system tests that run the real coins binaries as separate processes on loopback.
+#pragma once
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "orchestrator/child_process.h"
+
+namespace coins::testing {
+
+// where the coins executables are (set by CMake)
+inline std::string Bin(const std::string& name) { return std::string(COINS_BIN_DIR) + "/" + name; }
+
+// a DDS domain no other concurrently running test uses
+inline int TestDomain(int salt) { return 20 + (getpid() * 7 + salt) % 200; }
+
+// a fresh temporary directory for one test
+inline std::filesystem::path TempDir(const std::string& name) {
+  auto dir = std::filesystem::temp_directory_path() / ("coins-" + name + "-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+inline nlohmann::json ReadJson(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) return nullptr;
+  return nlohmann::json::parse(in, nullptr, false);
+}
+
+// runs a command, returning its exit code and its combined output
+struct CommandResult {
+  int code;
+  std::string output;
+};
+inline CommandResult RunCommand(const std::string& command) {
+  std::string out;
+  FILE* p = popen((command + " 2>&1").c_str(), "r");
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
+  int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+// waits until pred() is true or the timeout passes; returns pred()
+template <typename Pred>
+bool WaitUntil(Pred pred, std::chrono::milliseconds timeout) {
+  auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (pred()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return pred();
+}
+
+}  // namespace coins::testing

@@ -54,7 +54,7 @@ void Ddpg::Act(std::span<const float> obs, bool explore, std::mt19937_64* rng,
 }
 
 DdpgStats Ddpg::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
-  const int bs = batch.size(), ad = options_.action_dim;
+  const int bs = batch.size();
   const float inv_b = 1.0f / float(bs);
   DdpgStats stats;
 
@@ -73,18 +73,24 @@ DdpgStats Ddpg::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
   critic_adam_.Step(&critic_.params());
 
   // actor: ascend Q(s, mu(s)) through the critic's input gradient
-  act_ = actor_.Forward(batch.obs);
-  Concat(batch.obs, act_);
-  stats.actor_loss = -critic_.Forward(sa_).mean();
-  da_ = critic_.Backward(Eigen::MatrixXf::Constant(1, bs, -inv_b), /*input_grad=*/true)
-            .bottomRows(ad);
-  actor_.Backward(da_);
+  stats.actor_loss = ActorLossAndGrad(batch.obs);
   actor_adam_.Step(&actor_.params());
 
   nn::SoftUpdate(actor_.params(), options_.tau, &actor_target_.params());
   nn::SoftUpdate(critic_.params(), options_.tau, &critic_target_.params());
   if (priorities) *priorities = prio_;
   return stats;
+}
+
+float Ddpg::ActorLossAndGrad(const Eigen::MatrixXf& obs) {
+  const int bs = int(obs.cols()), ad = options_.action_dim;
+  act_ = actor_.Forward(obs);
+  Concat(obs, act_);
+  const float loss = -critic_.Forward(sa_).mean();
+  da_ = critic_.Backward(Eigen::MatrixXf::Constant(1, bs, -1.0f / float(bs)), /*input_grad=*/true)
+            .bottomRows(ad);
+  actor_.Backward(da_);
+  return loss;
 }
 
 Result<DdpgStats> Ddpg::Train(BatchSource* source) {

@@ -47,6 +47,8 @@ class Ddpg {
   // per-sample |TD error| (1 x B) into priorities when asked
   DdpgStats Update(const Batch& batch, Eigen::MatrixXf* priorities = nullptr);
   Result<DdpgStats> Train(BatchSource* source);
+  // the actor loss -mean Q(s, mu(s)) and its gradient in actor().params().grads; no step
+  float ActorLossAndGrad(const Eigen::MatrixXf& obs);
 
   nn::Mlp& actor() { return actor_; }
   const DdpgOptions& options() const { return options_; }

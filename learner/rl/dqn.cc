@@ -67,12 +67,25 @@ int Dqn::Act(std::span<const float> obs, float epsilon, std::mt19937_64* rng) {
 }
 
 DqnStats Dqn::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
+  DqnStats stats = LossAndGrad(batch);
+  stats.grad_norm = adam_.Step(&online_.params());
+  ++updates_;
+  // target network
+  if (options_.tau > 0.0f)
+    nn::SoftUpdate(online_.params(), options_.tau, &target_.params());
+  else if (updates_ % options_.target_update_period == 0)
+    nn::HardUpdate(online_.params(), &target_.params());
+  if (priorities) *priorities = per_sample_;
+  return stats;
+}
+
+DqnStats Dqn::LossAndGrad(const Batch& batch) {
   const int batch_size = batch.size(), k = atoms();
   assert(batch.obs.rows() == options_.obs_dim);
   DqnStats stats;
 
   // next actions: argmax of the online net (double Q) or of the target net
-  Eigen::MatrixXf target_head;
+  Eigen::MatrixXf& target_head = target_head_;
   Head(target_.Forward(batch.next_obs), &target_head);
   if (options_.double_q) {
     Head(online_.Forward(batch.next_obs), &head_);
@@ -80,7 +93,8 @@ DqnStats Dqn::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
   } else {
     ToQ(target_head, &q_next_);
   }
-  std::vector<int> next_action(size_t(batch_size), 0);
+  std::vector<int>& next_action = next_action_;
+  next_action.assign(size_t(batch_size), 0);
   for (int b = 0; b < batch_size; ++b) {
     Eigen::Index best = 0;
     q_next_.col(b).maxCoeff(&best);
@@ -131,15 +145,6 @@ DqnStats Dqn::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
   } else {
     online_.Backward(dhead_);
   }
-  stats.grad_norm = adam_.Step(&online_.params());
-  ++updates_;
-
-  // target network
-  if (options_.tau > 0.0f)
-    nn::SoftUpdate(online_.params(), options_.tau, &target_.params());
-  else if (updates_ % options_.target_update_period == 0)
-    nn::HardUpdate(online_.params(), &target_.params());
-  if (priorities) *priorities = per_sample_;
   return stats;
 }
 

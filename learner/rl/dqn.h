@@ -60,6 +60,11 @@ class Dqn {
 
   // one gradient step on batch; writes per-sample priorities (1 x B) when asked
   DqnStats Update(const Batch& batch, Eigen::MatrixXf* priorities = nullptr);
+  // the loss of batch and its gradient in online().params().grads, without stepping (the
+  // target distribution / value is treated as a constant). Update = this + Adam + target sync.
+  DqnStats LossAndGrad(const Batch& batch);
+  // per-sample priorities of the last LossAndGrad: cross-entropy (C51) or |TD error|
+  const Eigen::MatrixXf& last_priorities() const { return per_sample_; }
   // samples options.batch_size from source, updates, and reports priorities back
   Result<DqnStats> Train(BatchSource* source);
 
@@ -82,7 +87,8 @@ class Dqn {
   Batch batch_;
   // workspaces
   Eigen::MatrixXf head_, probs_, q_next_, q_target_, target_dist_, dhead_, draw_, per_sample_;
-  Eigen::MatrixXf next_probs_, chosen_;
+  Eigen::MatrixXf next_probs_, chosen_, target_head_;
+  std::vector<int> next_action_;
 };
 
 }  // namespace coins::rl

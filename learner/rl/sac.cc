@@ -72,7 +72,7 @@ void Sac::Act(std::span<const float> obs, bool deterministic, std::mt19937_64* r
 }
 
 SacStats Sac::Update(const Batch& batch) {
-  const int bs = batch.size(), ad = options_.action_dim, od = options_.obs_dim;
+  const int bs = batch.size(), ad = options_.action_dim;
   const float inv_b = 1.0f / float(bs);
   const float alpha = this->alpha();
   SacStats stats;
@@ -97,23 +97,10 @@ SacStats Sac::Update(const Batch& batch) {
     adam->Step(&q->params());
   }
 
-  // actor: minimise alpha log pi(a|s) - min Q(s, a) through the reparameterised sample
-  raw_ = actor_.Forward(batch.obs);
-  FillNormal(&noise_, ad, bs, &rng_);
-  head_.Sample(raw_, noise_, &act_, &logp_);
-  Concat(batch.obs, act_);
-  q1v_ = q1_.Forward(sa_);
-  q2v_ = q2_.Forward(sa_);
-  Eigen::MatrixXf pick1 = (q1v_.array() <= q2v_.array()).cast<float>().matrix();
-  Eigen::MatrixXf pick2 = Eigen::MatrixXf::Ones(1, bs) - pick1;
-  stats.actor_loss = (alpha * logp_.array() - q1v_.cwiseMin(q2v_).array()).mean();
-  da_ = q1_.Backward(-inv_b * pick1, /*input_grad=*/true).bottomRows(ad);
-  da_ += q2_.Backward(-inv_b * pick2, /*input_grad=*/true).bottomRows(ad);
-  dlogp_ = Eigen::MatrixXf::Constant(1, bs, alpha * inv_b);
-  head_.Backward(raw_, noise_, da_, dlogp_, &draw_);
-  actor_.Backward(draw_);
+  // actor, through the reparameterised sample
+  FillNormal(&actor_noise_, ad, bs, &rng_);
+  stats.actor_loss = ActorLossAndGrad(batch.obs, actor_noise_, &stats.entropy);
   actor_adam_.Step(&actor_.params());
-  stats.entropy = -logp_.mean();
 
   // temperature: d/dlog_alpha of -log_alpha (log pi + target_entropy)
   if (options_.auto_alpha) {
@@ -124,8 +111,30 @@ SacStats Sac::Update(const Batch& batch) {
 
   nn::SoftUpdate(q1_.params(), options_.tau, &q1_target_.params());
   nn::SoftUpdate(q2_.params(), options_.tau, &q2_target_.params());
-  (void)od;
   return stats;
+}
+
+float Sac::ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise,
+                            float* entropy) {
+  const int bs = int(obs.cols()), ad = options_.action_dim;
+  const float inv_b = 1.0f / float(bs);
+  const float alpha = this->alpha();
+  raw_ = actor_.Forward(obs);
+  head_.Sample(raw_, noise, &act_, &logp_);
+  Concat(obs, act_);
+  q1v_ = q1_.Forward(sa_);
+  q2v_ = q2_.Forward(sa_);
+  // the smaller critic per sample carries the gradient
+  Eigen::MatrixXf pick1 = (q1v_.array() <= q2v_.array()).cast<float>().matrix();
+  Eigen::MatrixXf pick2 = Eigen::MatrixXf::Ones(1, bs) - pick1;
+  const float loss = (alpha * logp_.array() - q1v_.cwiseMin(q2v_).array()).mean();
+  da_ = q1_.Backward(-inv_b * pick1, /*input_grad=*/true).bottomRows(ad);
+  da_ += q2_.Backward(-inv_b * pick2, /*input_grad=*/true).bottomRows(ad);
+  dlogp_ = Eigen::MatrixXf::Constant(1, bs, alpha * inv_b);
+  head_.Backward(raw_, noise, da_, dlogp_, &draw_);
+  actor_.Backward(draw_);
+  if (entropy) *entropy = -logp_.mean();
+  return loss;
 }
 
 Result<SacStats> Sac::Train(BatchSource* source) {

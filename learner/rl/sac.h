@@ -55,6 +55,11 @@ class Sac {
   void Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng,
            std::span<float> action);
   SacStats Update(const Batch& batch);
+  // the actor loss mean(alpha log pi(a|s) - min_i Q_i(s, a)) at a = tanh(mean + std * noise)
+  // (noise: action_dim x B) and its gradient in actor().params().grads; no step is taken.
+  // Writes -mean log pi into entropy when not null.
+  float ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise,
+                         float* entropy = nullptr);
   Result<SacStats> Train(BatchSource* source);
 
   float alpha() const { return std::exp(log_alpha_.values[0]); }
@@ -72,7 +77,7 @@ class Sac {
   float target_entropy_ = 0.0f;
   std::mt19937_64 rng_;
   Batch batch_;
-  Eigen::MatrixXf sa_, raw_, noise_, act_, logp_, y_, q1v_, q2v_, d_, da_, dlogp_, draw_;
+  Eigen::MatrixXf sa_, raw_, noise_, actor_noise_, act_, logp_, y_, q1v_, q2v_, d_, da_, dlogp_, draw_;
 };
 
 }  // namespace coins::rl

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 
 namespace coins::rl {
 
@@ -15,6 +16,9 @@ Status MemoryReplayOptions::Validate() const {
   if (!goal_mask.empty() && int(goal_mask.size()) != goal_dim)
     return Errorf("memory replay: goal_mask has {} entries, goal_dim is {}", goal_mask.size(),
                   goal_dim);
+  if (prioritized && !(priority_alpha >= 0.0f && priority_beta >= 0.0f && priority_eps > 0.0f))
+    return Errorf("memory replay: priority alpha {} and beta {} must be >= 0, eps {} > 0",
+                  priority_alpha, priority_beta, priority_eps);
   if (!(her_ratio >= 0.0f && her_ratio <= 1.0f))
     return Errorf("memory replay: her_ratio {} not in [0, 1]", her_ratio);
   return Status::Ok();
@@ -34,6 +38,7 @@ MemoryReplay::MemoryReplay(MemoryReplayOptions options)
   seg_begin_.resize(size_t(cap));
   seg_end_.resize(size_t(cap));
   goal_.resize(options_.goal_dim);
+  if (options_.prioritized) tree_ = SumTree(cap);
 }
 
 void MemoryReplay::Add(const ReplayStep& step) {
@@ -53,6 +58,7 @@ void MemoryReplay::Add(const ReplayStep& step) {
   terminal_[size_t(s)] = step.terminal;
   seg_begin_[size_t(s)] = open_begin_;
   seg_end_[size_t(s)] = -1;
+  if (options_.prioritized) tree_.Set(s, std::pow(max_priority_, double(options_.priority_alpha)));
   ++total_;
   // close the segment: every step in it learns its end
   if (step.segment_end || step.terminal) {
@@ -78,8 +84,22 @@ Status MemoryReplay::Sample(int batch_size, Batch* batch) {
   std::uniform_int_distribution<int64_t> pick(oldest, total_ - 1);
   std::uniform_real_distribution<float> coin(0.0f, 1.0f);
   const bool goals = gd > 0;
+  const int64_t n = size();
+  double max_weight = 0.0;
   for (int b = 0; b < batch_size; ++b) {
-    const int64_t t = pick(rng_);
+    int64_t t = 0;
+    if (options_.prioritized) {
+      // stratified proportional draw, then the importance weight (N P(i))^-beta
+      const double total = tree_.Total();
+      const double u = (double(b) + coin(rng_)) * total / double(batch_size);
+      const int64_t slot = tree_.Find(u);
+      t = slot + ((total_ - 1 - slot) / options_.capacity) * options_.capacity;
+      const double w = std::pow(double(n) * tree_.Get(slot) / total, -double(options_.priority_beta));
+      batch->weights(0, b) = float(w);
+      max_weight = std::max(max_weight, w);
+    } else {
+      t = pick(rng_);
+    }
     const int64_t s = Slot(t);
     const int64_t begin = std::max(seg_begin_[size_t(s)], oldest);
     const int64_t end = seg_end_[size_t(s)] < 0 ? total_ : seg_end_[size_t(s)];
@@ -120,7 +140,22 @@ Status MemoryReplay::Sample(int batch_size, Batch* batch) {
     batch->discounts(0, b) = discount;
     batch->keys[size_t(b)] = uint64_t(t);
   }
+  if (options_.prioritized && max_weight > 0.0) batch->weights /= float(max_weight);
   return Status::Ok();
+}
+
+void MemoryReplay::UpdatePriorities(std::span<const uint64_t> keys,
+                                    std::span<const float> priorities) {
+  if (!options_.prioritized) return;
+  assert(keys.size() == priorities.size());
+  const int64_t oldest = std::max<int64_t>(0, total_ - options_.capacity);
+  for (size_t i = 0; i < keys.size(); ++i) {
+    const int64_t t = int64_t(keys[i]);
+    if (t < oldest || t >= total_) continue;
+    const double p = double(std::max(priorities[i], 0.0f)) + options_.priority_eps;
+    max_priority_ = std::max(max_priority_, p);
+    tree_.Set(Slot(t), std::pow(p, double(options_.priority_alpha)));
+  }
 }
 
 }  // namespace coins::rl

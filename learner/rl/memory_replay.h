@@ -5,7 +5,7 @@
 // learners, hindsight relabelling inside the step's segment (her.h) with the reward and
 // termination recomputed for the chosen goal. Segments are runs of steps ended by
 // Step::segment_end (episode end, skill timeout or goal change); n-step windows and hindsight
-// goals never cross a segment's end. Keys are absolute step numbers; priorities are ignored.
+// goals never cross a segment's end. Keys are absolute step numbers.
 #pragma once
 
 #include <cstdint>
@@ -17,6 +17,7 @@
 
 #include "learner/rl/batch.h"
 #include "learner/rl/her.h"
+#include "learner/rl/sum_tree.h"
 
 namespace coins::rl {
 
@@ -36,6 +37,11 @@ struct MemoryReplayOptions {
   bool terminate_on_success = true;
   HerStrategy her = HerStrategy::kFuture;
   float her_ratio = 0.5f;        // fraction of samples relabelled (the paper's p = 0.5)
+  // prioritised sampling (the ball skill's alpha 0.2, beta 0.4); new steps get the max priority
+  bool prioritized = false;
+  float priority_alpha = 0.2f;
+  float priority_beta = 0.4f;
+  float priority_eps = 1e-3f;   // added to reported priorities so none is zero
   uint64_t seed = 0;
   Status Validate() const;
 };
@@ -62,6 +68,8 @@ class MemoryReplay : public BatchSource {
   int sample_obs_dim() const { return options_.obs_dim + options_.goal_dim; }
 
   Status Sample(int batch_size, Batch* batch) override;
+  // keys no longer in the buffer are ignored
+  void UpdatePriorities(std::span<const uint64_t> keys, std::span<const float> priorities) override;
 
  private:
   int64_t Slot(int64_t abs) const { return abs % options_.capacity; }
@@ -74,6 +82,8 @@ class MemoryReplay : public BatchSource {
   std::vector<int64_t> seg_begin_, seg_end_;  // absolute; seg_end_ = -1 while open
   int64_t total_ = 0;
   int64_t open_begin_ = 0;  // first step of the open segment
+  SumTree tree_;            // prioritized only: priority^alpha per slot
+  double max_priority_ = 1.0;
   std::mt19937_64 rng_;
   Eigen::VectorXf goal_;    // sampling scratch
 };

@@ -6,6 +6,8 @@
 // gradients (2 B MACs) and the input gradients of every layer but the first. The baseline runs
 // exactly those products as raw Eigen GEMMs on preallocated matrices at the same shapes in the
 // same repetition; the figure is the ratio. Each figure is the median over repetitions.
+// Unless --no-paddle, the Breakout paddle skill is trained from several seeds and the medians
+// of env steps and wall time to 95% greedy success are reported.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -19,6 +21,7 @@
 #include "common/nn/adam.h"
 #include "common/nn/mlp.h"
 #include "common/nn/pairnet.h"
+#include "learner/rl/paddle_skill.h"
 
 namespace {
 
@@ -148,11 +151,34 @@ Samples BenchPairNet(int reps, double min_seconds) {
   return s;
 }
 
+void BenchPaddle(coins::Figures* f, int seeds) {
+  std::vector<double> steps, seconds, success;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    coins::rl::PaddleSkillOptions o;
+    o.seed = uint64_t(seed);
+    auto r = coins::rl::TrainPaddleSkill(o);
+    if (!r.ok()) {
+      std::fprintf(stderr, "paddle skill: %s\n", r.status().message().c_str());
+      return;
+    }
+    // a run that misses the target counts as the whole budget
+    steps.push_back(r->env_steps_to_target >= 0 ? double(r->env_steps_to_target)
+                                                : double(o.max_env_steps));
+    seconds.push_back(r->env_steps_to_target >= 0 ? r->seconds_to_target : r->wall_seconds);
+    success.push_back(r->env_steps_to_target >= 0 ? 1.0 : 0.0);
+  }
+  f->AddMedian("paddle_env_steps_to_95", steps, "steps");
+  f->AddMedian("paddle_seconds_to_95", seconds, "s");
+  double reached = 0.0;
+  for (double s : success) reached += s;
+  f->Add("paddle_seeds_reaching_95", reached / double(success.size()), "fraction");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool json = false;
-  int reps = 5;
+  bool json = false, paddle = true;
+  int reps = 5, seeds = 5;
   double min_seconds = 0.5;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -163,14 +189,20 @@ int main(int argc, char** argv) {
     } else if (arg == "--quick") {
       reps = 1;
       min_seconds = 0.05;
+      seeds = 1;
+    } else if (arg == "--no-paddle") {
+      paddle = false;
+    } else if (arg == "--seeds" && i + 1 < argc) {
+      seeds = std::max(1, std::atoi(argv[++i]));
     } else {
-      std::fprintf(stderr, "usage: coins-bench-nn [--json] [--reps N] [--quick]\n");
+      std::fprintf(stderr, "usage: coins-bench-nn [--json] [--reps N] [--seeds N] [--quick] [--no-paddle]\n");
       return 2;
     }
   }
   coins::Figures figures;
   Record(&figures, "mlp", BenchMlp(reps, min_seconds));
   Record(&figures, "pairnet", BenchPairNet(reps, min_seconds));
+  if (paddle) BenchPaddle(&figures, seeds);
   figures.Print(json);
   return 0;
 }

@@ -266,6 +266,13 @@ void AddEnvCommands(CLI::App& app) {
   CLI::App* env = app.add_subcommand("env", "Environments: list them, write rollouts, render pictures");
   env->require_subcommand(1);
   const std::vector<std::string> names = EnvNames();
+  const CLI::Validator seed_check(
+      [](std::string& v) {
+        return !v.empty() && v.size() <= 20 && v.find_first_not_of("0123456789") == std::string::npos
+                   ? std::string()
+                   : "'" + v + "' is not a non-negative integer";
+      },
+      "UINT");
 
   // list
   auto json = std::make_shared<bool>(false);
@@ -277,7 +284,7 @@ void AddEnvCommands(CLI::App& app) {
   auto ro = std::make_shared<RolloutOptions>();
   CLI::App* rollout = env->add_subcommand("rollout", "Run an env and write one JSON object per transition");
   rollout->add_option("--env", ro->env, "Env name")->required()->check(CLI::IsMember(names));
-  rollout->add_option("--seed", ro->seed, "Env seed")->required();
+  rollout->add_option("--seed", ro->seed, "Env seed")->required()->check(seed_check);
   auto* actions = rollout->add_option("--actions", ro->actions_file,
                                       "File with one action per line (integer, or comma-separated floats)")
                       ->check(CLI::ExistingFile);
@@ -293,7 +300,7 @@ void AddEnvCommands(CLI::App& app) {
   auto rd = std::make_shared<RenderOptions>();
   CLI::App* render = env->add_subcommand("render", "Render frames of a random-policy run to PNG (last frame) or GIF");
   render->add_option("--env", rd->env, "Env name")->required()->check(CLI::IsMember(names));
-  render->add_option("--seed", rd->seed, "Env seed")->required();
+  render->add_option("--seed", rd->seed, "Env seed")->required()->check(seed_check);
   render->add_option("--policy", rd->policy, "Action policy")->check(CLI::IsMember({"random"}));
   render->add_option("--steps", rd->steps, "Number of steps")->check(CLI::NonNegativeNumber);
   render->add_option("--out", rd->out, "Output file, .png or .gif")->required();

@@ -117,7 +117,7 @@ float CategoricalCrossEntropy(const Eigen::Ref<const Eigen::MatrixXf>& logits, i
                               const Eigen::Ref<const Eigen::MatrixXf>& weights,
                               Eigen::MatrixXf* dlogits, Eigen::MatrixXf* per_sample) {
   const Eigen::Index batch = logits.cols();
-  const int blocks = int(logits.rows() / atoms);
+  [[maybe_unused]] const int blocks = int(logits.rows() / atoms);
   dlogits->setZero(logits.rows(), batch);
   if (per_sample) per_sample->resize(1, batch);
   double loss = 0.0;

@@ -78,7 +78,9 @@ TEST_P(DqnChain, ReachesTheGoalFromEveryState) {
       s = std::uniform_int_distribution<int>(0, kStates - 2)(rng);
       t = 0;
     }
-    if (step >= 200) ASSERT_TRUE(dqn.Train(&replay).ok());
+    if (step >= 200) {
+      ASSERT_TRUE(dqn.Train(&replay).ok());
+    }
   }
   EXPECT_GE(GreedySuccess(&dqn), 1.0);
   // the value of the state next to the goal is about -1 / 0 (one step then success)

@@ -92,7 +92,9 @@ TEST(SacHer, PointMassReachesGoals) {
       env.Reset(&rng);
       t = 0;
     }
-    if (step >= 300) ASSERT_TRUE(sac.Train(&replay).ok());
+    if (step >= 300) {
+      ASSERT_TRUE(sac.Train(&replay).ok());
+    }
   }
   const double success = EvalSuccess(
       [&](std::span<const float> in, std::span<float> a) { sac.Act(in, true, &rng, a); }, 100, 9);
@@ -130,7 +132,9 @@ TEST(Ddpg, LearnsToMoveTowardTheGoal) {
     s.reward = reward(obs[0], obs[1], a);
     s.terminal = true;
     replay.Add(s);
-    if (step >= 200) ASSERT_TRUE(ddpg.Train(&replay).ok());
+    if (step >= 200) {
+      ASSERT_TRUE(ddpg.Train(&replay).ok());
+    }
   }
   double err = 0.0;
   for (int i = 0; i < 100; ++i) {

@@ -10,15 +10,22 @@ constexpr uint64_t kPrime = 0x100000001b3ULL;
 }
 
 uint64_t HashBytes(const void* data, size_t n, uint64_t h) {
+  // four independent FNV-1a lanes over 32-byte blocks (the multiplies overlap), folded at the end
   const auto* p = static_cast<const uint8_t*>(data);
-  size_t words = n / 8;
-  for (size_t i = 0; i < words; ++i) {
-    uint64_t w;
-    std::memcpy(&w, p + 8 * i, 8);
-    h = (h ^ w) * kPrime;
+  uint64_t lane[4] = {h, h ^ 0x9e3779b97f4a7c15ULL, h ^ 0xc2b2ae3d27d4eb4fULL, h ^ 0x165667b19e3779f9ULL};
+  size_t blocks = n / 32;
+  for (size_t i = 0; i < blocks; ++i) {
+    uint64_t w[4];
+    std::memcpy(w, p + 32 * i, 32);
+    for (int k = 0; k < 4; ++k) lane[k] = (lane[k] ^ w[k]) * kPrime;
   }
-  for (size_t i = words * 8; i < n; ++i) h = (h ^ p[i]) * kPrime;
-  return h;
+  // fold only when a block was mixed in (otherwise the lanes' shared seed would cancel)
+  if (blocks) {
+    h = lane[0];
+    for (int k = 1; k < 4; ++k) h = (h ^ lane[k]) * kPrime;
+  }
+  for (size_t i = blocks * 32; i < n; ++i) h = (h ^ p[i]) * kPrime;
+  return (h ^ n) * kPrime;
 }
 
 uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim) {
@@ -38,13 +45,26 @@ uint32_t MaxRows(uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim) {
 
 uint64_t PayloadHash(const TransitionBatch& b) {
   uint32_t n = b.n_rows();
-  size_t values = size_t(n) * (b.state_dim() + b.action_dim() + b.goal_dim());
-  uint64_t h = HashBytes(b.values().data(), values * sizeof(float));
+  // one call per block, so a store holding the blocks apart can recompute the same hash
+  uint64_t h = HashBytes(BatchState(b, 0), size_t(n) * b.state_dim() * sizeof(float));
+  h = HashBytes(BatchAction(b, 0), size_t(n) * b.action_dim() * sizeof(float), h);
+  h = HashBytes(BatchGoal(b, 0), size_t(n) * b.goal_dim() * sizeof(float), h);
   h = HashBytes(b.reward().data(), n * sizeof(float), h);
   h = HashBytes(b.flags().data(), n * sizeof(uint16_t), h);
   h = HashBytes(b.skill_level().data(), n * sizeof(uint8_t), h);
   h = HashBytes(b.interactions().data(), n * sizeof(uint32_t), h);
   return h;
+}
+
+bool AllFinite(const float* v, size_t n) {
+  // a float is NaN or infinite when its exponent bits are all ones; OR-reduce that test
+  uint32_t bad = 0;
+  for (size_t i = 0; i < n; ++i) {
+    uint32_t bits;
+    std::memcpy(&bits, v + i, 4);
+    bad |= uint32_t((bits & 0x7f800000u) == 0x7f800000u);
+  }
+  return bad == 0;
 }
 
 uint32_t CountTransitions(const TransitionBatch& b) {
@@ -67,13 +87,8 @@ Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout) {
                   b.seq(), b.layout_hash(), expected_layout);
   if ((b.flags()[0] & msg::ROW_SEGMENT_START) == 0)
     return Errorf("batch from actor {} seq {}: row 0 must start a segment", b.actor_id(), b.seq());
-  // finite values: sum of x*0 is NaN when any x is NaN or infinite
-  const float* v = b.values().data();
-  size_t nv = per_row * b.n_rows();
-  float probe = 0.0f;
-  for (size_t i = 0; i < nv; ++i) probe += v[i] * 0.0f;
-  for (uint32_t r = 0; r < b.n_rows(); ++r) probe += b.reward()[r] * 0.0f;
-  if (!std::isfinite(probe)) return Errorf("batch from actor {} seq {}: non-finite values", b.actor_id(), b.seq());
+  if (!AllFinite(b.values().data(), per_row * b.n_rows()) || !AllFinite(b.reward().data(), b.n_rows()))
+    return Errorf("batch from actor {} seq {}: non-finite values", b.actor_id(), b.seq());
   if (PayloadHash(b) != b.payload_hash())
     return Errorf("batch from actor {} seq {}: payload hash mismatch", b.actor_id(), b.seq());
   return Status::Ok();

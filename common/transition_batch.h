@@ -20,11 +20,16 @@ using msg::TransitionBatch;
 // identifies an env name together with the batch dimensions
 uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim);
 
-// 64-bit FNV-1a style hash over 8-byte words; `seed` chains calls
+// 64-bit hash: four FNV-1a lanes over 8-byte words, folded; `seed` chains calls
+// (a chained call hashes the same as one call only at the block level, so hash the same
+// pieces on both sides)
 uint64_t HashBytes(const void* data, size_t n, uint64_t seed = 0xcbf29ce484222325ULL);
-// hash over the used parts of the batch arrays, in layout order (values, reward, flags,
-// skill_level, interactions)
+// hash over the used parts of the batch arrays, chained in layout order: the state, action and
+// goal blocks, then reward, flags, skill_level and interactions
 uint64_t PayloadHash(const TransitionBatch& b);
+
+// true when none of the n floats is NaN or infinite
+bool AllFinite(const float* v, size_t n);
 
 // checks a received batch; expected_layout 0 accepts any layout
 Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout = 0);

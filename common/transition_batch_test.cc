@@ -114,3 +114,18 @@ TEST(TransitionBatch, LayoutHashSeparatesEnvsAndDims) {
 
 }  // namespace
 }  // namespace coins
+namespace coins { namespace {
+TEST(TransitionBatch, HashBytesSeesEveryWord) {
+  float a[24] = {0}, b[24] = {0};
+  a[1] = 1.0f;
+  b[1] = 2.0f;
+  EXPECT_NE(HashBytes(a, sizeof(a)), HashBytes(b, sizeof(b)));
+  for (int i = 0; i < 24; ++i) {
+    float c[24] = {0};
+    c[i] = 1.0f;
+    // an empty piece chained after it must not erase it
+    EXPECT_NE(HashBytes(c, 0, HashBytes(c, sizeof(c))), HashBytes(b, 0, HashBytes(b, sizeof(b)))) << i;
+    EXPECT_NE(HashBytes(c, sizeof(c)), HashBytes(b, sizeof(b))) << i;
+  }
+}
+} }

@@ -10,10 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
-#if __has_include("actors/envs/env_cli.h")
 #include "actors/envs/env_cli.h"
-#define COINS_HAVE_ENV_CLI 1
-#endif
 #include "orchestrator/child_process.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
@@ -24,13 +21,11 @@ namespace {
 // `coins bench NAME [ARGS...]` runs the coins-bench-NAME executable beside this one
 void AddBenchCommand(CLI::App& app, int* exit_code) {
   auto name = std::make_shared<std::string>();
-  auto args = std::make_shared<std::vector<std::string>>();
   CLI::App* bench = app.add_subcommand("bench", "Run a benchmark and print its figures (name value unit; --json for JSON).");
   bench->add_option("name", *name, "benchmark: transport, env, nn, ...")->required();
-  bench->add_option("args", *args, "arguments passed to the benchmark (e.g. --json)");
-  bench->allow_extras();
+  bench->footer("Arguments after the name go to the benchmark, e.g. `coins bench transport --json`.");
   bench->prefix_command();
-  bench->callback([bench, name, args, exit_code] {
+  bench->callback([bench, name, exit_code] {
     std::string path = SelfDirectory() + "/coins-bench-" + *name;
     if (access(path.c_str(), X_OK) != 0) {
       std::string known;
@@ -42,8 +37,7 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
       *exit_code = 2;
       return;
     }
-    std::vector<std::string> all = *args;
-    for (const auto& extra : bench->remaining()) all.push_back(extra);
+    std::vector<std::string> all = bench->remaining();
     std::vector<char*> argv = {path.data()};
     for (auto& a : all) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -63,9 +57,7 @@ int main(int argc, char** argv) {
   coins::AddRunCommand(app, &exit_code);
   coins::AddMonitorCommand(app, &exit_code);
   coins::AddBenchCommand(app, &exit_code);
-#ifdef COINS_HAVE_ENV_CLI
   coins::envs::AddEnvCommands(app);
-#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

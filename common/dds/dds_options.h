@@ -21,7 +21,7 @@ struct DdsOptions {
   // large samples several-fold)
   int64_t shm_segment_mb = 16;
   // writer history depth, in batches, of the transition stream
-  int64_t transition_history = 32;
+  int64_t transition_history = 256;
   // seconds without discovery traffic after which a participant counts as gone
   double lease_s = 4.0;
 

@@ -1,0 +1,120 @@
+// coins-bench-transport: how much of an actor's standalone step rate survives publishing every
+// transition to a replay shard process over Fast DDS shared memory (data-sharing, loaned
+// samples). Standalone and published runs alternate, and the figures are medians.
+//
+//   standalone_steps_per_s     one actor stepping Breakout into batches kept in memory
+//   transport_steps_per_s      the same actor publishing to one coins-replay process, counted
+//                              once the shard has acknowledged every batch
+//   transport_ratio            transport / standalone (goal: >= 0.8)
+#include <unistd.h>
+
+#include <filesystem>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "actors/actor.h"
+#include "common/dds/qos.h"
+#include "common/dds/topics.h"
+#include "common/figures.h"
+#include "common/process.h"
+#include "idl/transitionPubSubTypes.h"
+#include "orchestrator/child_process.h"
+
+namespace coins {
+namespace {
+
+struct Args {
+  std::string env = "breakout";
+  double seconds = 2.0;
+  int repeats = 5;
+  bool json = false;
+};
+
+// steps per second of one actor run of `seconds` into `sink` (including the final flush)
+double TimedRun(const Args& a, BatchSink* sink, uint64_t seed) {
+  ActorOptions options;
+  auto actor = Actor::Create(a.env, options, 0, seed, sink);
+  if (!actor.ok()) {
+    std::cerr << "coins-bench-transport: " << actor.status().message() << "\n";
+    std::exit(2);
+  }
+  auto start = std::chrono::steady_clock::now();
+  auto end = start + std::chrono::duration<double>(a.seconds);
+  (*actor)->Run(0, [&] { return std::chrono::steady_clock::now() >= end; }, [](const ActorCounters&) {},
+                std::chrono::hours(1));
+  sink->Flush(std::chrono::seconds(30));
+  double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return double((*actor)->counters().transitions_published) / dt;
+}
+
+int Main(int argc, char** argv) {
+  Args a;
+  CLI::App app("Actor step rate standalone and publishing to one replay shard over shared memory", "coins-bench-transport");
+  app.add_option("--env", a.env, "environment");
+  app.add_option("--seconds", a.seconds, "seconds per measurement")->check(CLI::PositiveNumber);
+  app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
+  app.add_flag("--json", a.json, "print one JSON object");
+  CLI11_PARSE(app, argc, argv);
+  SetupLogging("bench", "warn");
+
+  // one replay shard process on a private domain
+  DdsOptions dds;
+  dds.domain = 100 + getpid() % 100;
+  auto dir = std::filesystem::temp_directory_path() / ("coins-bench-transport-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  std::vector<ChildProcess> shard;
+  auto child = ChildProcess::Spawn(
+      "replay-0",
+      {SelfDirectory() + "/coins-replay", "--id", "0", "--quiet-config", "--set", "run.shards=1", "--set",
+       "run.env=" + a.env, "--set", "dds.domain=" + std::to_string(dds.domain), "--set", "replay.capacity=300000"},
+      (dir / "replay-0.log").string());
+  if (!child.ok()) {
+    std::cerr << "coins-bench-transport: " << child.status().message() << "\n";
+    return 1;
+  }
+  shard.push_back(std::move(*child));
+
+  auto node = dds::Node::Create(dds, "bench-transport");
+  if (!node.ok()) {
+    std::cerr << node.status().message() << "\n";
+    return 1;
+  }
+  auto writer = (*node)->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
+                                                                    dds::ShardPartition(0));
+  if (!writer.ok()) {
+    std::cerr << writer.status().message() << "\n";
+    return 1;
+  }
+  bool stop = false;
+  DdsBatchSink dds_sink(*writer, [&] { return stop || shard[0].Poll(); });
+  MemoryBatchSink memory_sink;
+  // warm-up: wait for the match and touch the shard's first pages
+  {
+    Args warm = a;
+    warm.seconds = 0.5;
+    TimedRun(warm, &dds_sink, 99);
+  }
+  std::vector<double> standalone, transport;
+  for (int r = 0; r < a.repeats; ++r) {
+    standalone.push_back(TimedRun(a, &memory_sink, r + 1));
+    transport.push_back(TimedRun(a, &dds_sink, r + 1));
+  }
+  stop = true;
+  StopAll(shard, std::chrono::seconds(10));
+  std::filesystem::remove_all(dir);
+
+  Figures f;
+  f.AddMedian("standalone_steps_per_s", standalone, "steps/s");
+  f.AddMedian("transport_steps_per_s", transport, "steps/s");
+  f.Add("transport_ratio", f.Get("transport_steps_per_s") / f.Get("standalone_steps_per_s"), "ratio");
+  f.Add("batch_bytes", double(sizeof(msg::TransitionBatch)), "bytes");
+  f.Print(a.json);
+  return 0;
+}
+
+}  // namespace
+}  // namespace coins
+
+int main(int argc, char** argv) { return coins::Main(argc, argv); }

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The test command: installs what is missing, builds, and runs the whole test suite with ctest.
+# Extra arguments go to ctest (e.g. -R Skeleton, -L system).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+start=$(date +%s)
+./deploy/build.sh
+echo "build finished in $(( $(date +%s) - start )) s"
+# remove shared-memory files that killed runs may have left behind
+fastdds shm clean > /dev/null 2>&1 || true
+ctest --test-dir build --output-on-failure --parallel 2 --timeout 600 "$@"
+echo "build and tests finished in $(( $(date +%s) - start )) s"

@@ -55,7 +55,7 @@ class ByteReader {
     uint64_t len = 0;
     if (!Get(&len) || len != n) return false;
     if (bytes_.size() - pos_ < n * sizeof(T)) return false;
-    std::memcpy(v, bytes_.data() + pos_, n * sizeof(T));
+    if (n) std::memcpy(v, bytes_.data() + pos_, n * sizeof(T));
     pos_ += n * sizeof(T);
     return true;
   }

@@ -71,26 +71,45 @@ uint32_t Crc32(std::span<const uint8_t> bytes) {
 }
 
 std::vector<uint8_t> ToBlob(const ParamSet& params) {
+  const ParamSet* one[1] = {&params};
+  return ToBlob(std::span<const ParamSet* const>(one, 1));
+}
+
+Status FromBlob(std::span<const uint8_t> blob, ParamSet* params, const std::string& source) {
+  ParamSet* one[1] = {params};
+  return FromBlob(blob, std::span<ParamSet* const>(one, 1), source);
+}
+
+std::vector<uint8_t> ToBlob(std::span<const ParamSet* const> sets) {
+  size_t blocks = 0, floats = 0;
+  for (const ParamSet* p : sets) {
+    blocks += p->blocks().size();
+    floats += size_t(p->size());
+  }
   std::vector<uint8_t> out;
-  out.reserve(64 + params.blocks().size() * 32 + size_t(params.size()) * 4);
+  out.reserve(64 + blocks * 32 + floats * 4);
   out.insert(out.end(), kMagic, kMagic + 4);
   Put<uint32_t>(&out, kWeightsVersion);
-  Put<uint32_t>(&out, uint32_t(params.blocks().size()));
-  for (const ParamBlock& b : params.blocks()) {
-    Put<uint16_t>(&out, uint16_t(b.name.size()));
-    out.insert(out.end(), b.name.begin(), b.name.end());
-    Put<uint32_t>(&out, uint32_t(b.rows));
-    Put<uint32_t>(&out, uint32_t(b.cols));
+  Put<uint32_t>(&out, uint32_t(blocks));
+  for (const ParamSet* p : sets)
+    for (const ParamBlock& b : p->blocks()) {
+      Put<uint16_t>(&out, uint16_t(b.name.size()));
+      out.insert(out.end(), b.name.begin(), b.name.end());
+      Put<uint32_t>(&out, uint32_t(b.rows));
+      Put<uint32_t>(&out, uint32_t(b.cols));
+    }
+  Put<uint64_t>(&out, uint64_t(floats));
+  for (const ParamSet* p : sets) {
+    const size_t at = out.size();
+    out.resize(at + size_t(p->size()) * sizeof(float));
+    if (p->size() > 0) std::memcpy(out.data() + at, p->values.data(), size_t(p->size()) * 4);
   }
-  Put<uint64_t>(&out, uint64_t(params.size()));
-  const size_t at = out.size();
-  out.resize(at + size_t(params.size()) * sizeof(float));
-  if (params.size() > 0) std::memcpy(out.data() + at, params.values.data(), size_t(params.size()) * 4);
   Put<uint32_t>(&out, Crc32(out));
   return out;
 }
 
-Status FromBlob(std::span<const uint8_t> blob, ParamSet* params, const std::string& source) {
+Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
+                const std::string& source) {
   // header: magic and version before anything else
   if (blob.size() < 12)
     return Errorf("{}: truncated: {} bytes is shorter than the 12-byte header", source, blob.size());
@@ -136,21 +155,31 @@ Status FromBlob(std::span<const uint8_t> blob, ParamSet* params, const std::stri
                   source, blob.size() - r.pos(), floats);
   if (!crc_ok) return Errorf("{}: checksum mismatch (file is corrupt)", source);
 
-  // shapes against the destination
-  if (entries.size() != params->blocks().size())
-    return Errorf("{}: shape mismatch: {} blocks stored, the network has {}", source,
-                  entries.size(), params->blocks().size());
-  for (size_t i = 0; i < entries.size(); ++i) {
-    const ParamBlock& b = params->blocks()[i];
-    const Entry& e = entries[i];
-    if (e.name != b.name || int(e.rows) != b.rows || int(e.cols) != b.cols)
-      return Errorf("{}: shape mismatch at block {}: stored {} {}x{}, network has {} {}x{}",
-                    source, i, e.name, e.rows, e.cols, b.name, b.rows, b.cols);
+  // shapes against the destination networks, in order
+  size_t want_blocks = 0;
+  int64_t want_floats = 0;
+  for (const ParamSet* p : sets) {
+    want_blocks += p->blocks().size();
+    want_floats += p->size();
   }
-  if (int64_t(floats) != params->size())
-    return Errorf("{}: shape mismatch: {} values stored, the network has {}", source, floats,
-                  params->size());
-  return r.GetBytes(params->values.data(), size_t(floats) * 4, "values");
+  if (entries.size() != want_blocks)
+    return Errorf("{}: shape mismatch: {} blocks stored, the network(s) have {}", source,
+                  entries.size(), want_blocks);
+  size_t i = 0;
+  for (const ParamSet* p : sets)
+    for (const ParamBlock& b : p->blocks()) {
+      const Entry& e = entries[i];
+      if (e.name != b.name || int(e.rows) != b.rows || int(e.cols) != b.cols)
+        return Errorf("{}: shape mismatch at block {}: stored {} {}x{}, network has {} {}x{}",
+                      source, i, e.name, e.rows, e.cols, b.name, b.rows, b.cols);
+      ++i;
+    }
+  if (int64_t(floats) != want_floats)
+    return Errorf("{}: shape mismatch: {} values stored, the network(s) have {}", source, floats,
+                  want_floats);
+  for (ParamSet* p : sets)
+    COINS_RETURN_IF_ERROR(r.GetBytes(p->values.data(), size_t(p->size()) * 4, "values"));
+  return Status::Ok();
 }
 
 Status SaveWeights(const std::string& path, const ParamSet& params) {

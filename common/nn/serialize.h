@@ -8,6 +8,8 @@
 // Loading checks, in order: size, magic, version, truncation, checksum, then that every block
 // name and shape matches the destination ParamSet. Errors name the source (file path or
 // "blob") and what is wrong. Only values travel; gradients and optimiser state do not.
+// A set of networks (PolicyWeights "a network or a set of them") is one blob whose block table
+// is the networks' tables one after another, values likewise.
 #pragma once
 
 #include <cstdint>
@@ -28,6 +30,11 @@ uint32_t Crc32(std::span<const uint8_t> bytes);
 std::vector<uint8_t> ToBlob(const ParamSet& params);
 // reads a blob into params (whose shapes must match); source names the blob in errors
 Status FromBlob(std::span<const uint8_t> blob, ParamSet* params,
+                const std::string& source = "blob");
+
+// a set of networks in one blob, in order; loading needs the same networks in the same order
+std::vector<uint8_t> ToBlob(std::span<const ParamSet* const> sets);
+Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
                 const std::string& source = "blob");
 
 Status SaveWeights(const std::string& path, const ParamSet& params);

@@ -36,6 +36,23 @@ TEST(Serialize, BlobRoundTripIsBitExact) {
   EXPECT_EQ(ToBlob(b.params()), blob);
 }
 
+TEST(Serialize, SetOfNetworksInOneBlob) {
+  Mlp a(Small(), 1), b({{3, 5, 1}, Activation::kTanh, Activation::kIdentity}, 2);
+  const ParamSet* out[2] = {&a.params(), &b.params()};
+  std::vector<uint8_t> blob = ToBlob(std::span<const ParamSet* const>(out, 2));
+  Mlp a2(Small(), 3), b2({{3, 5, 1}, Activation::kTanh, Activation::kIdentity}, 4);
+  ParamSet* in[2] = {&a2.params(), &b2.params()};
+  ASSERT_TRUE(FromBlob(blob, std::span<ParamSet* const>(in, 2)).ok());
+  EXPECT_EQ(a2.params().values, a.params().values);
+  EXPECT_EQ(b2.params().values, b.params().values);
+  // the order matters: swapped destinations are a shape mismatch
+  ParamSet* swapped[2] = {&b2.params(), &a2.params()};
+  Status s = FromBlob(blob, std::span<ParamSet* const>(swapped, 2));
+  EXPECT_TRUE(Contains(s, "shape mismatch")) << s.message();
+  // a single network does not load from a two-network blob
+  EXPECT_FALSE(FromBlob(blob, &a2.params()).ok());
+}
+
 TEST(Serialize, FileRoundTripAndBadFiles) {
   const std::string dir = ::testing::TempDir();
   const std::string path = dir + "/coins_nn_weights.bin";

@@ -32,6 +32,7 @@ Result<std::unique_ptr<Actor>> Actor::Create(const std::string& env_name, const 
     slot.env = std::move(env.value());
     const auto& spec = slot.env->spec();
     slot.state.resize(spec.state_dim());
+    slot.next.resize(spec.state_dim());
     slot.action.resize(spec.action.dim);
     slot.env->Reset(EnvSeed(seed, actor_id, i), slot.state);
     actor->envs_.push_back(std::move(slot));
@@ -72,10 +73,6 @@ bool Actor::StartBatch(EnvSlot& slot) {
 }
 
 void Actor::PublishBatch(EnvSlot& slot) {
-  uint32_t rows = slot.builder.rows();
-  // keep the last state: the next batch of this env starts from it
-  const float* last = slot.batch->values().data() + size_t(rows - 1) * slot.state.size();
-  std::memcpy(slot.state.data(), last, slot.state.size() * sizeof(float));
   uint64_t hash = slot.builder.Finish();
   slot.batch->seq(seq_);
   uint32_t transitions = CountTransitions(*slot.batch);
@@ -92,12 +89,12 @@ bool Actor::StepOnce(EnvSlot& slot) {
   if (!slot.batch && !StartBatch(slot)) return false;
   SampleAction(slot);
   envs::StepResult result;
-  float* next = slot.builder.NextStateRow();
-  Status s = slot.env->Step(slot.action, std::span<float>(next, slot.state.size()), &result);
+  Status s = slot.env->Step(slot.action, slot.next, &result);
   assert(s.ok() && "the random policy only draws valid actions");
   (void)s;
   uint16_t flags = (result.done ? msg::ROW_DONE : 0) | (result.truncated ? msg::ROW_TRUNCATED : 0);
-  slot.builder.CommitRow(slot.action, {}, result.reward, flags, 0, result.interactions);
+  slot.builder.AddRow(slot.next, slot.action, {}, result.reward, flags, 0, result.interactions);
+  std::swap(slot.state, slot.next);
   slot.episode_start = false;
   slot.episode_return += result.reward;
   counters_.steps++;
@@ -108,20 +105,18 @@ bool Actor::StepOnce(EnvSlot& slot) {
     counters_.returns_counted++;
     slot.episode_return = 0;
     slot.episode++;
-    // the next episode starts in this batch when a transition still fits after its first row
-    bool room = slot.builder.rows() + 2 <= slot.builder.max_rows();
-    if (!room) PublishBatch(slot);
     slot.env->ResetNext(slot.state);
     slot.episode_start = true;
-    if (room) {
+    // the next episode starts in this batch when a transition still fits after its first row
+    if (slot.builder.rows() + 2 <= slot.builder.max_rows() && !slot.builder.full()) {
       std::fill(slot.action.begin(), slot.action.end(), 0.0f);
-      slot.builder.AddRow(slot.state, slot.action, {}, 0.0f,
-                          msg::ROW_SEGMENT_START | msg::ROW_EPISODE_START, 0, 0);
+      slot.builder.AddRow(slot.state, slot.action, {}, 0.0f, msg::ROW_SEGMENT_START | msg::ROW_EPISODE_START, 0, 0);
       slot.episode_start = false;
+    } else {
+      PublishBatch(slot);
     }
-  } else if (slot.builder.full()) {
-    PublishBatch(slot);
   }
+  if (slot.batch && slot.builder.full()) PublishBatch(slot);
   return true;
 }
 

@@ -1,7 +1,8 @@
 // Actor: steps environments with a policy and streams their rows, batched, into a BatchSink.
 //
-// The stepping loop writes each next state straight into the batch being filled (no copy per
-// step) and labels rows with episode boundaries and the simulator's ground-truth interactions.
+// Each step's next state goes into the batch being filled as the features that changed (see
+// idl/transition.idl); rows are labelled with episode boundaries and the simulator's
+// ground-truth interactions.
 // It knows nothing of DDS: the sink decides where batches go. For now the policy is uniform
 // random over the env's action space; the skill hierarchy plugs in here in a later stage.
 #pragma once
@@ -51,7 +52,8 @@ class Actor {
  private:
   struct EnvSlot {
     std::unique_ptr<envs::Env> env;
-    std::vector<float> state;      // state the next batch's context row starts from
+    std::vector<float> state;      // the env's current state
+    std::vector<float> next;       // where Step writes the next state
     std::vector<float> action;
     msg::TransitionBatch* batch = nullptr;
     BatchBuilder builder;

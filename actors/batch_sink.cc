@@ -6,8 +6,6 @@
 
 namespace coins {
 
-using eprosima::fastrtps::types::ReturnCode_t;
-
 msg::TransitionBatch* MemoryBatchSink::Acquire() {
   if (free_.empty()) return new msg::TransitionBatch();
   msg::TransitionBatch* b = free_.back().release();
@@ -26,27 +24,7 @@ void MemoryBatchSink::Release(msg::TransitionBatch* batch) { free_.emplace_back(
 DdsBatchSink::DdsBatchSink(dds::Writer<msg::TransitionBatch> writer, std::function<bool()> stopping)
     : writer_(writer), stopping_(std::move(stopping)) {}
 
-DdsBatchSink::~DdsBatchSink() = default;
-
-msg::TransitionBatch* DdsBatchSink::Acquire() {
-  if (loans_) {
-    void* sample = nullptr;
-    // the loan pool can be momentarily empty while the history is full: wait for room
-    for (int attempt = 0;; ++attempt) {
-      ReturnCode_t rc = writer_.raw()->loan_sample(sample);
-      if (rc == ReturnCode_t::RETCODE_OK) return static_cast<msg::TransitionBatch*>(sample);
-      if (rc != ReturnCode_t::RETCODE_OUT_OF_RESOURCES) {
-        spdlog::warn("transition writer cannot loan samples (code {}); publishing copies", rc());
-        loans_ = false;
-        break;
-      }
-      if (stopping_()) return nullptr;
-      ++retries_;
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-  }
-  return heap_.Acquire();
-}
+msg::TransitionBatch* DdsBatchSink::Acquire() { return stopping_() ? nullptr : pool_.Acquire(); }
 
 bool DdsBatchSink::Publish(msg::TransitionBatch* batch) {
   // volatile topic: a batch written before the shard matched would be lost, so wait for it
@@ -54,7 +32,7 @@ bool DdsBatchSink::Publish(msg::TransitionBatch* batch) {
   auto since = std::chrono::steady_clock::now();
   while (writer_.matched() == 0) {
     if (stopping_()) {
-      Release(batch);
+      pool_.Release(batch);
       return false;
     }
     if (!warned && std::chrono::steady_clock::now() - since > std::chrono::seconds(5)) {
@@ -64,25 +42,18 @@ bool DdsBatchSink::Publish(msg::TransitionBatch* batch) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   // a full keep-all history makes write() time out after max_blocking_time: try again
-  while (!writer_.raw()->write(batch)) {
+  while (!writer_.Write(*batch)) {
     if (stopping_()) {
-      Release(batch);
+      pool_.Release(batch);
       return false;
     }
     ++retries_;
   }
-  if (!loans_) heap_.Release(batch);
+  pool_.Release(batch);
   return true;
 }
 
-void DdsBatchSink::Release(msg::TransitionBatch* batch) {
-  if (loans_) {
-    void* sample = batch;
-    writer_.raw()->discard_loan(sample);
-  } else {
-    heap_.Release(batch);
-  }
-}
+void DdsBatchSink::Release(msg::TransitionBatch* batch) { pool_.Release(batch); }
 
 bool DdsBatchSink::Flush(std::chrono::milliseconds timeout) { return writer_.WaitAcked(timeout); }
 

@@ -1,7 +1,8 @@
 // BatchSink: where an actor's finished TransitionBatches go. The actor fills a buffer obtained
-// from Acquire() in place and hands it to Publish(). DdsBatchSink loans buffers from the DDS
-// writer (zero-copy through data-sharing); MemoryBatchSink keeps them in memory, which is how
-// the standalone step rate is measured.
+// from Acquire() in place and hands it to Publish(). Buffers are reused, so their sequences
+// keep their capacity and filling allocates nothing after the first batches. DdsBatchSink
+// writes them on the transition topic; MemoryBatchSink only counts them, which is how the
+// standalone step rate is measured.
 #pragma once
 
 #include <atomic>
@@ -50,7 +51,6 @@ class MemoryBatchSink final : public BatchSink {
 class DdsBatchSink final : public BatchSink {
  public:
   DdsBatchSink(dds::Writer<msg::TransitionBatch> writer, std::function<bool()> stopping);
-  ~DdsBatchSink() override;
   msg::TransitionBatch* Acquire() override;
   bool Publish(msg::TransitionBatch* batch) override;
   void Release(msg::TransitionBatch* batch) override;
@@ -60,8 +60,7 @@ class DdsBatchSink final : public BatchSink {
  private:
   dds::Writer<msg::TransitionBatch> writer_;
   std::function<bool()> stopping_;
-  bool loans_ = true;  // falls back to copies when the writer cannot loan
-  MemoryBatchSink heap_;
+  MemoryBatchSink pool_;
   uint64_t retries_ = 0;
 };
 

@@ -1,30 +1,53 @@
 #include "common/transition_batch.h"
 
-#include <cmath>
+#include <algorithm>
+#include <cassert>
 #include <cstring>
 
 namespace coins {
 
 namespace {
 constexpr uint64_t kPrime = 0x100000001b3ULL;
+
+template <typename T>
+uint64_t HashVec(const std::vector<T>& v, uint64_t h) {
+  return HashBytes(v.data(), v.size() * sizeof(T), h);
 }
 
-uint64_t HashBytes(const void* data, size_t n, uint64_t h) {
-  // four independent FNV-1a lanes over 32-byte blocks (the multiplies overlap), folded at the end
+// bit-exact float comparison (0.0 vs -0.0 and NaN payloads count as changes)
+inline bool SameBits(float a, float b) {
+  uint32_t x, y;
+  std::memcpy(&x, &a, 4);
+  std::memcpy(&y, &b, 4);
+  return x == y;
+}
+}  // namespace
+
+uint64_t HashBytes(const void* data, size_t n, uint64_t seed) {
+  // Fletcher-style sums in 8 lanes of 32-bit words (first- and second-order sums, so the order
+  // of words matters); the plain loops vectorise. The lanes are folded with FNV-1a at the end.
+  constexpr int kLanes = 8;
   const auto* p = static_cast<const uint8_t*>(data);
-  uint64_t lane[4] = {h, h ^ 0x9e3779b97f4a7c15ULL, h ^ 0xc2b2ae3d27d4eb4fULL, h ^ 0x165667b19e3779f9ULL};
-  size_t blocks = n / 32;
+  uint64_t s1[kLanes], s2[kLanes];
+  for (int l = 0; l < kLanes; ++l) {
+    s1[l] = seed ^ (0x9e3779b97f4a7c15ULL * (l + 1));
+    s2[l] = 0;
+  }
+  size_t blocks = n / (4 * kLanes);
   for (size_t i = 0; i < blocks; ++i) {
-    uint64_t w[4];
-    std::memcpy(w, p + 32 * i, 32);
-    for (int k = 0; k < 4; ++k) lane[k] = (lane[k] ^ w[k]) * kPrime;
+    uint32_t w[kLanes];
+    std::memcpy(w, p + i * 4 * kLanes, sizeof(w));
+    for (int l = 0; l < kLanes; ++l) {
+      s1[l] += w[l];
+      s2[l] += s1[l];
+    }
   }
-  // fold only when a block was mixed in (otherwise the lanes' shared seed would cancel)
-  if (blocks) {
-    h = lane[0];
-    for (int k = 1; k < 4; ++k) h = (h ^ lane[k]) * kPrime;
+  uint64_t h = 0xcbf29ce484222325ULL;
+  for (int l = 0; l < kLanes; ++l) {
+    h = (h ^ s1[l]) * kPrime;
+    h = (h ^ s2[l]) * kPrime;
   }
-  for (size_t i = blocks * 32; i < n; ++i) h = (h ^ p[i]) * kPrime;
+  for (size_t i = blocks * 4 * kLanes; i < n; ++i) h = (h ^ p[i]) * kPrime;
   return (h ^ n) * kPrime;
 }
 
@@ -36,24 +59,17 @@ uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t acti
   return folded == 0 ? 1 : folded;  // 0 means "any layout" to ValidateBatch
 }
 
-uint32_t MaxRows(uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim) {
-  uint32_t per_row = state_dim + action_dim + goal_dim;
-  if (per_row == 0) return 0;
-  uint32_t rows = COINS_BATCH_MAX_VALUES / per_row;
-  return rows < COINS_BATCH_MAX_ROWS ? rows : COINS_BATCH_MAX_ROWS;
-}
-
 uint64_t PayloadHash(const TransitionBatch& b) {
-  uint32_t n = b.n_rows();
-  // one call per block, so a store holding the blocks apart can recompute the same hash
-  uint64_t h = HashBytes(BatchState(b, 0), size_t(n) * b.state_dim() * sizeof(float));
-  h = HashBytes(BatchAction(b, 0), size_t(n) * b.action_dim() * sizeof(float), h);
-  h = HashBytes(BatchGoal(b, 0), size_t(n) * b.goal_dim() * sizeof(float), h);
-  h = HashBytes(b.reward().data(), n * sizeof(float), h);
-  h = HashBytes(b.flags().data(), n * sizeof(uint16_t), h);
-  h = HashBytes(b.skill_level().data(), n * sizeof(uint8_t), h);
-  h = HashBytes(b.interactions().data(), n * sizeof(uint32_t), h);
-  return h;
+  uint64_t h = HashVec(b.first_state(), 0xcbf29ce484222325ULL);
+  h = HashVec(b.delta_end(), h);
+  h = HashVec(b.delta_index(), h);
+  h = HashVec(b.delta_value(), h);
+  h = HashVec(b.action(), h);
+  h = HashVec(b.goal(), h);
+  h = HashVec(b.reward(), h);
+  h = HashVec(b.flags(), h);
+  h = HashVec(b.skill_level(), h);
+  return HashVec(b.interactions(), h);
 }
 
 bool AllFinite(const float* v, size_t n) {
@@ -69,84 +85,122 @@ bool AllFinite(const float* v, size_t n) {
 
 uint32_t CountTransitions(const TransitionBatch& b) {
   uint32_t count = 0;
-  for (uint32_t r = 0; r < b.n_rows(); ++r) count += (b.flags()[r] & msg::ROW_SEGMENT_START) == 0;
+  for (uint16_t f : b.flags()) count += (f & msg::ROW_SEGMENT_START) == 0;
   return count;
 }
 
-Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout) {
+Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout, bool check_hash) {
+  auto bad = [&b](std::string_view what) {
+    return Errorf("batch from actor {} seq {}: {}", b.actor_id(), b.seq(), what);
+  };
   if (b.schema_version() != msg::TRANSITION_BATCH_SCHEMA)
-    return Errorf("batch from actor {} seq {}: schema version {} (this build reads {})", b.actor_id(),
-                  b.seq(), b.schema_version(), msg::TRANSITION_BATCH_SCHEMA);
-  uint64_t per_row = uint64_t(b.state_dim()) + b.action_dim() + b.goal_dim();
-  if (b.n_rows() == 0 || b.n_rows() > COINS_BATCH_MAX_ROWS || b.state_dim() == 0 ||
-      per_row * b.n_rows() > COINS_BATCH_MAX_VALUES)
-    return Errorf("batch from actor {} seq {}: bad size (n_rows {}, state_dim {}, action_dim {}, goal_dim {})",
-                  b.actor_id(), b.seq(), b.n_rows(), b.state_dim(), b.action_dim(), b.goal_dim());
+    return bad(fmt::format("schema version {} (this build reads {})", b.schema_version(), msg::TRANSITION_BATCH_SCHEMA));
+  const size_t n = b.n_rows();
+  if (n == 0 || n > COINS_BATCH_MAX_ROWS || b.state_dim() == 0 || b.state_dim() > COINS_BATCH_MAX_STATE ||
+      b.action_dim() > COINS_BATCH_MAX_VALUES || b.goal_dim() > COINS_BATCH_MAX_VALUES)
+    return bad(fmt::format("bad size (n_rows {}, state_dim {}, action_dim {}, goal_dim {})", n, b.state_dim(),
+                           b.action_dim(), b.goal_dim()));
+  if (b.first_state().size() != b.state_dim() || b.delta_end().size() != n || b.reward().size() != n ||
+      b.flags().size() != n || b.skill_level().size() != n || b.interactions().size() != n ||
+      b.action().size() != n * b.action_dim() || b.goal().size() != n * b.goal_dim() ||
+      b.delta_index().size() != b.delta_value().size())
+    return bad("column lengths do not match n_rows and the dimensions");
   if (expected_layout != 0 && b.layout_hash() != expected_layout)
-    return Errorf("batch from actor {} seq {}: layout {:08x} differs from this shard's {:08x}", b.actor_id(),
-                  b.seq(), b.layout_hash(), expected_layout);
-  if ((b.flags()[0] & msg::ROW_SEGMENT_START) == 0)
-    return Errorf("batch from actor {} seq {}: row 0 must start a segment", b.actor_id(), b.seq());
-  if (!AllFinite(b.values().data(), per_row * b.n_rows()) || !AllFinite(b.reward().data(), b.n_rows()))
-    return Errorf("batch from actor {} seq {}: non-finite values", b.actor_id(), b.seq());
-  if (PayloadHash(b) != b.payload_hash())
-    return Errorf("batch from actor {} seq {}: payload hash mismatch", b.actor_id(), b.seq());
+    return bad(fmt::format("layout {:08x} differs from this shard's {:08x}", b.layout_hash(), expected_layout));
+  if ((b.flags()[0] & msg::ROW_SEGMENT_START) == 0) return bad("row 0 must start a segment");
+  // delta_end starts at 0, never decreases and ends at the number of deltas
+  uint32_t prev = 0;
+  if (b.delta_end()[0] != 0) return bad("delta_end[0] must be 0");
+  for (uint32_t e : b.delta_end()) {
+    if (e < prev) return bad("delta_end decreases");
+    prev = e;
+  }
+  if (prev != b.delta_index().size()) return bad("delta_end does not end at the number of deltas");
+  uint16_t max_index = 0;
+  for (uint16_t i : b.delta_index()) max_index = std::max(max_index, i);
+  if (!b.delta_index().empty() && max_index >= b.state_dim())
+    return bad(fmt::format("delta index {} outside the state ({} features)", max_index, b.state_dim()));
+  if (!AllFinite(b.first_state().data(), b.first_state().size()) ||
+      !AllFinite(b.delta_value().data(), b.delta_value().size()) ||
+      !AllFinite(b.action().data(), b.action().size()) || !AllFinite(b.goal().data(), b.goal().size()) ||
+      !AllFinite(b.reward().data(), b.reward().size()))
+    return bad("non-finite values");
+  if (check_hash && PayloadHash(b) != b.payload_hash()) return bad("payload hash mismatch");
   return Status::Ok();
+}
+
+void DecodeStates(const TransitionBatch& b, float* out) {
+  const size_t dim = b.state_dim();
+  std::memcpy(out, b.first_state().data(), dim * sizeof(float));
+  for (uint32_t r = 1; r < b.n_rows(); ++r) {
+    float* row = out + r * dim;
+    std::memcpy(row, row - dim, dim * sizeof(float));
+    for (uint32_t k = b.delta_end()[r - 1]; k < b.delta_end()[r]; ++k) row[b.delta_index()[k]] = b.delta_value()[k];
+  }
 }
 
 void BatchBuilder::Begin(TransitionBatch* batch, const BatchHeader& header, uint32_t max_rows) {
   b_ = batch;
   h_ = header;
-  uint32_t limit = MaxRows(header.state_dim, header.action_dim, header.goal_dim);
-  max_rows_ = max_rows == 0 || max_rows > limit ? limit : max_rows;
+  max_rows_ = max_rows == 0 || max_rows > COINS_BATCH_MAX_ROWS ? COINS_BATCH_MAX_ROWS : max_rows;
+  // action and goal values bound the rows too
+  uint32_t per_row = std::max<uint32_t>(header.action_dim, header.goal_dim);
+  if (per_row) max_rows_ = std::min<uint32_t>(max_rows_, COINS_BATCH_MAX_VALUES / per_row);
   rows_ = 0;
+  prev_.resize(header.state_dim);
+  b_->first_state().clear();
+  b_->delta_end().clear();
+  b_->delta_index().clear();
+  b_->delta_value().clear();
+  b_->action().clear();
+  b_->goal().clear();
+  b_->reward().clear();
+  b_->flags().clear();
+  b_->skill_level().clear();
+  b_->interactions().clear();
 }
 
-float* BatchBuilder::NextStateRow() {
-  assert(rows_ < max_rows_);
-  // state rows are laid out for max_rows_ while filling; Finish() compacts action/goal blocks
-  return b_->values().data() + size_t(rows_) * h_.state_dim;
+bool BatchBuilder::full() const {
+  return rows_ >= max_rows_ || b_->delta_index().size() + h_.state_dim > COINS_BATCH_MAX_DELTAS;
 }
 
-void BatchBuilder::CommitRow(std::span<const float> action, std::span<const float> goal, float reward,
-                             uint16_t flags, uint8_t skill_level, uint32_t interactions) {
-  assert(action.size() == h_.action_dim && goal.size() == h_.goal_dim);
-  float* base = b_->values().data();
-  // while filling, the action block starts after max_rows_ state rows, the goal block after that
-  float* a = base + size_t(max_rows_) * h_.state_dim + size_t(rows_) * h_.action_dim;
-  std::memcpy(a, action.data(), action.size_bytes());
-  if (h_.goal_dim) {
-    float* g = base + size_t(max_rows_) * (h_.state_dim + h_.action_dim) + size_t(rows_) * h_.goal_dim;
-    std::memcpy(g, goal.data(), goal.size_bytes());
+void BatchBuilder::AddRow(std::span<const float> state, std::span<const float> action, std::span<const float> goal,
+                          float reward, uint16_t flags, uint8_t skill_level, uint32_t interactions) {
+  assert(!full() && state.size() == h_.state_dim && action.size() == h_.action_dim && goal.size() == h_.goal_dim);
+  if (rows_ == 0) {
+    b_->first_state().assign(state.begin(), state.end());
+  } else {
+    // only the features that changed since the previous row
+    // only the features that changed since the previous row; most 16-feature blocks of a
+    // factored state are untouched by a step, so compare blocks first
+    auto& index = b_->delta_index();
+    auto& value = b_->delta_value();
+    const uint32_t dim = h_.state_dim;
+    const float* now = state.data();
+    const float* before = prev_.data();
+    for (uint32_t block = 0; block < dim; block += 16) {
+      uint32_t end = std::min(dim, block + 16);
+      if (std::memcmp(now + block, before + block, (end - block) * sizeof(float)) == 0) continue;
+      for (uint32_t i = block; i < end; ++i) {
+        if (!SameBits(now[i], before[i])) {
+          index.push_back(static_cast<uint16_t>(i));
+          value.push_back(now[i]);
+        }
+      }
+    }
   }
-  b_->reward()[rows_] = reward;
-  b_->flags()[rows_] = flags;
-  b_->skill_level()[rows_] = skill_level;
-  b_->interactions()[rows_] = interactions;
+  std::memcpy(prev_.data(), state.data(), state.size_bytes());
+  b_->delta_end().push_back(static_cast<uint32_t>(b_->delta_index().size()));
+  b_->action().insert(b_->action().end(), action.begin(), action.end());
+  b_->goal().insert(b_->goal().end(), goal.begin(), goal.end());
+  b_->reward().push_back(reward);
+  b_->flags().push_back(flags);
+  b_->skill_level().push_back(skill_level);
+  b_->interactions().push_back(interactions);
   ++rows_;
 }
 
-bool BatchBuilder::AddRow(std::span<const float> state, std::span<const float> action,
-                          std::span<const float> goal, float reward, uint16_t flags, uint8_t skill_level,
-                          uint32_t interactions) {
-  if (full()) return false;
-  assert(state.size() == h_.state_dim);
-  std::memcpy(NextStateRow(), state.data(), state.size_bytes());
-  CommitRow(action, goal, reward, flags, skill_level, interactions);
-  return true;
-}
-
 uint64_t BatchBuilder::Finish() {
-  float* base = b_->values().data();
-  // compact: move the action and goal blocks up behind rows_ state rows
-  if (rows_ < max_rows_) {
-    std::memmove(base + size_t(rows_) * h_.state_dim, base + size_t(max_rows_) * h_.state_dim,
-                 size_t(rows_) * h_.action_dim * sizeof(float));
-    if (h_.goal_dim)
-      std::memmove(base + size_t(rows_) * (h_.state_dim + h_.action_dim),
-                   base + size_t(max_rows_) * (h_.state_dim + h_.action_dim),
-                   size_t(rows_) * h_.goal_dim * sizeof(float));
-  }
   b_->schema_version(msg::TRANSITION_BATCH_SCHEMA);
   b_->actor_id(h_.actor_id);
   b_->incarnation(h_.incarnation);

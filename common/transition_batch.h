@@ -1,14 +1,16 @@
-// Building, hashing and checking TransitionBatch samples (idl/transition.idl).
+// Building, checking, hashing and decoding TransitionBatch samples (idl/transition.idl).
 //
-// BatchBuilder fills a batch in place (typically a sample loaned from the DDS writer) row by
-// row; Finish() stamps the header and the payload hash. ValidateBatch() is what a receiver
-// runs before it stores anything: schema version, sizes within bounds, finite values, and the
-// payload hash; its error names the first thing wrong.
+// BatchBuilder fills a batch row by row: the first row's state whole, later rows as the
+// features that changed since the row before. Finish() stamps the header and the payload hash.
+// ValidateBatch() is what a receiver runs before it stores anything: schema version, sizes
+// within bounds and consistent, delta indices in range, finite values and the payload hash;
+// its error names the batch and the first thing wrong.
 #pragma once
 
 #include <cstdint>
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "common/status.h"
 #include "idl/transition.h"
@@ -20,22 +22,25 @@ using msg::TransitionBatch;
 // identifies an env name together with the batch dimensions
 uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim);
 
-// 64-bit hash: four FNV-1a lanes over 8-byte words, folded; `seed` chains calls
-// (a chained call hashes the same as one call only at the block level, so hash the same
-// pieces on both sides)
+// 64-bit checksum of bytes (Fletcher-style lane sums, folded with FNV-1a); `seed` chains
+// calls. Chained calls hash the same only when split at the same places, so sender and
+// receiver hash the same pieces. It detects corruption and double counting, not attacks.
 uint64_t HashBytes(const void* data, size_t n, uint64_t seed = 0xcbf29ce484222325ULL);
-// hash over the used parts of the batch arrays, chained in layout order: the state, action and
-// goal blocks, then reward, flags, skill_level and interactions
+// hash over the batch's sequences, one piece per sequence in IDL order
 uint64_t PayloadHash(const TransitionBatch& b);
 
 // true when none of the n floats is NaN or infinite
 bool AllFinite(const float* v, size_t n);
 
-// checks a received batch; expected_layout 0 accepts any layout
-Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout = 0);
+// checks a received batch; expected_layout 0 accepts any layout. check_hash false leaves the
+// payload hash to the caller (a store that hashes its own copy).
+Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout = 0, bool check_hash = true);
 
-// the largest number of rows that fits for these dimensions
-uint32_t MaxRows(uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim);
+// transitions in a batch: rows without ROW_SEGMENT_START
+uint32_t CountTransitions(const TransitionBatch& b);
+
+// writes the batch's n_rows x state_dim states (row-major) into out; the batch must be valid
+void DecodeStates(const TransitionBatch& b, float* out);
 
 struct BatchHeader {
   uint32_t actor_id = 0;
@@ -51,19 +56,17 @@ struct BatchHeader {
 
 class BatchBuilder {
  public:
-  // starts filling `batch` (not owned) with at most max_rows rows (clamped to MaxRows)
+  // starts filling `batch` (not owned; its sequences keep their capacity across batches)
+  // with at most max_rows rows (0 or more than the bound: COINS_BATCH_MAX_ROWS)
   void Begin(TransitionBatch* batch, const BatchHeader& header, uint32_t max_rows);
-  // appends a row; returns false (and appends nothing) when the batch is full
-  bool AddRow(std::span<const float> state, std::span<const float> action, std::span<const float> goal,
+  // appends a row; the caller checks full() first
+  void AddRow(std::span<const float> state, std::span<const float> action, std::span<const float> goal,
               float reward, uint16_t flags, uint8_t skill_level, uint32_t interactions);
-  // state area of the next row, to write a state in place; call CommitRow after
-  float* NextStateRow();
-  void CommitRow(std::span<const float> action, std::span<const float> goal, float reward,
-                 uint16_t flags, uint8_t skill_level, uint32_t interactions);
-  bool full() const { return rows_ >= max_rows_; }
+  // true when the next row might not fit (rows, or room for a row of all-changed features)
+  bool full() const;
   uint32_t rows() const { return rows_; }
   uint32_t max_rows() const { return max_rows_; }
-  // stamps n_rows and the payload hash; returns the hash
+  // stamps the header and the payload hash; returns the hash
   uint64_t Finish();
 
  private:
@@ -71,20 +74,7 @@ class BatchBuilder {
   BatchHeader h_;
   uint32_t max_rows_ = 0;
   uint32_t rows_ = 0;
+  std::vector<float> prev_;  // state of the last row added
 };
-
-// accessors into a batch's columnar values
-inline const float* BatchState(const TransitionBatch& b, uint32_t row) {
-  return b.values().data() + size_t(row) * b.state_dim();
-}
-inline const float* BatchAction(const TransitionBatch& b, uint32_t row) {
-  return b.values().data() + size_t(b.n_rows()) * b.state_dim() + size_t(row) * b.action_dim();
-}
-inline const float* BatchGoal(const TransitionBatch& b, uint32_t row) {
-  return b.values().data() + size_t(b.n_rows()) * (b.state_dim() + b.action_dim()) +
-         size_t(row) * b.goal_dim();
-}
-// transitions in a batch: rows without ROW_SEGMENT_START
-uint32_t CountTransitions(const TransitionBatch& b);
 
 }  // namespace coins

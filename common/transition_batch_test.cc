@@ -9,55 +9,79 @@
 namespace coins {
 namespace {
 
-// fills a batch with rows whose values encode (row, column)
-std::unique_ptr<TransitionBatch> MakeBatch(uint32_t rows, uint32_t s, uint32_t a, uint32_t g) {
+// row r's state: feature i is r*1000+i for i < changing, the rest stay constant
+std::vector<float> State(uint32_t r, uint32_t dim, uint32_t changing) {
+  std::vector<float> s(dim);
+  for (uint32_t i = 0; i < dim; ++i) s[i] = i < changing ? r * 1000.0f + i : -1.0f * i;
+  return s;
+}
+
+std::unique_ptr<TransitionBatch> MakeBatch(uint32_t rows, uint32_t s, uint32_t a, uint32_t g, uint32_t changing = 2) {
   auto batch = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
   BatchHeader h{.actor_id = 3, .seq = 7, .env_id = 1, .layout_hash = LayoutHash("test", s, a, g),
                 .state_dim = s, .action_dim = a, .goal_dim = g, .episode_base = 2};
   builder.Begin(batch.get(), h, 0);
   for (uint32_t r = 0; r < rows; ++r) {
-    std::vector<float> st(s), ac(a), go(g);
-    for (uint32_t i = 0; i < s; ++i) st[i] = r * 1000.0f + i;
+    std::vector<float> ac(a), go(g);
     for (uint32_t i = 0; i < a; ++i) ac[i] = -(r * 10.0f + i);
     for (uint32_t i = 0; i < g; ++i) go[i] = 0.5f * r + i;
     uint16_t flags = r == 0 ? msg::ROW_SEGMENT_START : (r % 5 == 0 ? msg::ROW_DONE : 0);
-    EXPECT_TRUE(builder.AddRow(st, ac, go, r * 0.25f, flags, uint8_t(r % 3), r));
+    EXPECT_FALSE(builder.full());
+    builder.AddRow(State(r, s, changing), ac, go, r * 0.25f, flags, uint8_t(r % 3), r);
   }
   builder.Finish();
   return batch;
 }
 
-TEST(TransitionBatch, ColumnarLayoutAfterPartialFill) {
-  auto b = MakeBatch(10, 4, 2, 3);
+TEST(TransitionBatch, DeltaEncodingDecodesEveryRow) {
+  auto b = MakeBatch(10, 6, 2, 3, 2);
   EXPECT_EQ(b->n_rows(), 10u);
+  // two features change per row after the first
+  EXPECT_EQ(b->delta_index().size(), 2u * 9);
+  std::vector<float> states(10 * 6);
+  DecodeStates(*b, states.data());
   for (uint32_t r = 0; r < 10; ++r) {
-    EXPECT_EQ(BatchState(*b, r)[3], r * 1000.0f + 3);
-    EXPECT_EQ(BatchAction(*b, r)[1], -(r * 10.0f + 1));
-    EXPECT_EQ(BatchGoal(*b, r)[2], 0.5f * r + 2);
+    EXPECT_EQ(std::vector<float>(states.begin() + r * 6, states.begin() + r * 6 + 6), State(r, 6, 2)) << r;
+    EXPECT_EQ(b->action()[r * 2 + 1], -(r * 10.0f + 1));
+    EXPECT_EQ(b->goal()[r * 3 + 2], 0.5f * r + 2);
     EXPECT_EQ(b->reward()[r], r * 0.25f);
     EXPECT_EQ(b->skill_level()[r], r % 3);
   }
-  // the action block starts right after the 10 state rows
-  EXPECT_EQ(b->values()[40], -0.0f);
-  EXPECT_EQ(b->values()[41], -1.0f);
   EXPECT_EQ(CountTransitions(*b), 9u);
-  EXPECT_TRUE(ValidateBatch(*b, LayoutHash("test", 4, 2, 3)).ok());
+  EXPECT_TRUE(ValidateBatch(*b, LayoutHash("test", 6, 2, 3)).ok());
 }
 
-TEST(TransitionBatch, FullBatchRespectsBounds) {
-  uint32_t s = 515, a = 1;
-  uint32_t max = MaxRows(s, a, 0);
-  EXPECT_EQ(max, COINS_BATCH_MAX_VALUES / 516);
+TEST(TransitionBatch, NegativeZeroCountsAsAChange) {
+  auto batch = std::make_unique<TransitionBatch>();
+  BatchBuilder builder;
+  builder.Begin(batch.get(), {.layout_hash = 1, .state_dim = 2, .action_dim = 1}, 0);
+  float a[1] = {0}, s0[2] = {0.0f, 1.0f}, s1[2] = {-0.0f, 1.0f};
+  builder.AddRow(s0, a, {}, 0, msg::ROW_SEGMENT_START, 0, 0);
+  builder.AddRow(s1, a, {}, 0, 0, 0, 0);
+  builder.Finish();
+  std::vector<float> out(4);
+  DecodeStates(*batch, out.data());
+  EXPECT_TRUE(std::signbit(out[2]));
+}
+
+TEST(TransitionBatch, FullWhenRowsOrDeltaRoomRunOut) {
+  // rows bound
   auto b = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
-  builder.Begin(b.get(), {.layout_hash = 1, .state_dim = s, .action_dim = a}, 100000);
-  std::vector<float> st(s, 1.0f), ac(a, 2.0f);
+  builder.Begin(b.get(), {.layout_hash = 1, .state_dim = 4, .action_dim = 1}, 100);
+  std::vector<float> a(1);
   uint32_t added = 0;
-  while (builder.AddRow(st, ac, {}, 0, added == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0)) ++added;
-  EXPECT_EQ(added, max);
-  EXPECT_TRUE(builder.full());
+  for (; !builder.full(); ++added) builder.AddRow(State(added, 4, 4), a, {}, 0, added == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
+  EXPECT_EQ(added, 100u);
+  // delta bound: a 4000-feature state that changes whole each row fills 65536 deltas in 17 rows
+  builder.Begin(b.get(), {.layout_hash = 1, .state_dim = 4000, .action_dim = 1}, 0);
+  added = 0;
+  for (; !builder.full(); ++added)
+    builder.AddRow(State(added, 4000, 4000), a, {}, 0, added == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
+  EXPECT_EQ(added, 17u);
   builder.Finish();
+  EXPECT_LE(b->delta_index().size(), COINS_BATCH_MAX_DELTAS);
   EXPECT_TRUE(ValidateBatch(*b).ok());
 }
 
@@ -65,45 +89,54 @@ TEST(TransitionBatch, ValidationRejectsMalformedBatches) {
   auto b = MakeBatch(6, 4, 2, 0);
   uint32_t layout = LayoutHash("test", 4, 2, 0);
   ASSERT_TRUE(ValidateBatch(*b, layout).ok());
-
-  auto bad = std::make_unique<TransitionBatch>(*b);
-  bad->schema_version(99);
-  EXPECT_NE(ValidateBatch(*bad).message().find("schema version 99"), std::string::npos);
-
-  *bad = *b;
-  bad->n_rows(COINS_BATCH_MAX_ROWS + 1);
-  EXPECT_NE(ValidateBatch(*bad).message().find("bad size"), std::string::npos);
-
-  *bad = *b;
-  bad->state_dim(60000);
-  EXPECT_NE(ValidateBatch(*bad).message().find("bad size"), std::string::npos);
-
-  *bad = *b;
-  bad->values()[5] = std::nanf("");
-  EXPECT_NE(ValidateBatch(*bad).message().find("non-finite"), std::string::npos);
-
-  *bad = *b;
-  bad->reward()[2] = INFINITY;
-  EXPECT_NE(ValidateBatch(*bad).message().find("non-finite"), std::string::npos);
-
-  *bad = *b;
-  bad->values()[1] += 1.0f;
-  EXPECT_NE(ValidateBatch(*bad).message().find("payload hash mismatch"), std::string::npos);
-
+  auto expect = [&](auto mutate, const std::string& what) {
+    TransitionBatch bad = *b;
+    mutate(bad);
+    Status s = ValidateBatch(bad);
+    EXPECT_NE(s.message().find(what), std::string::npos) << "wanted '" << what << "', got '" << s.message() << "'";
+    EXPECT_NE(s.message().find("actor 3 seq 7"), std::string::npos) << s.message();
+  };
+  expect([](TransitionBatch& x) { x.schema_version(99); }, "schema version 99");
+  expect([](TransitionBatch& x) { x.n_rows(COINS_BATCH_MAX_ROWS + 1); }, "bad size");
+  expect([](TransitionBatch& x) { x.state_dim(60000); }, "bad size");
+  expect([](TransitionBatch& x) { x.n_rows(5); }, "column lengths");
+  expect([](TransitionBatch& x) { x.action().pop_back(); }, "column lengths");
+  expect([](TransitionBatch& x) { x.delta_value().pop_back(); }, "column lengths");
+  expect([](TransitionBatch& x) { x.delta_index()[0] = 4; }, "delta index 4 outside the state");
+  expect([](TransitionBatch& x) { x.delta_end()[2] = 0; }, "delta_end decreases");
+  expect([](TransitionBatch& x) { x.delta_end()[0] = 1; }, "delta_end[0] must be 0");
+  expect([](TransitionBatch& x) { x.flags()[0] = 0; }, "row 0 must start a segment");
+  expect([](TransitionBatch& x) { x.first_state()[1] = std::nanf(""); }, "non-finite");
+  expect([](TransitionBatch& x) { x.delta_value()[3] = INFINITY; }, "non-finite");
+  expect([](TransitionBatch& x) { x.reward()[2] = -INFINITY; }, "non-finite");
+  expect([](TransitionBatch& x) { x.delta_value()[1] += 1.0f; }, "payload hash mismatch");
+  expect([](TransitionBatch& x) { x.interactions()[5] ^= 1; }, "payload hash mismatch");
   EXPECT_NE(ValidateBatch(*b, layout + 1).message().find("layout"), std::string::npos);
 }
 
-TEST(TransitionBatch, HashDependsOnEveryUsedColumnOnly) {
+TEST(TransitionBatch, HashCoversEveryColumn) {
   auto a = MakeBatch(8, 3, 1, 2);
   uint64_t h = PayloadHash(*a);
-  auto b = std::make_unique<TransitionBatch>(*a);
-  b->values()[60000] = 123.0f;  // unused tail
-  EXPECT_EQ(PayloadHash(*b), h);
-  b->flags()[3] ^= msg::ROW_INTERACTION;
-  EXPECT_NE(PayloadHash(*b), h);
-  *b = *a;
-  b->interactions()[7] ^= 1;
-  EXPECT_NE(PayloadHash(*b), h);
+  TransitionBatch b = *a;
+  b.flags()[3] ^= msg::ROW_INTERACTION;
+  EXPECT_NE(PayloadHash(b), h);
+  b = *a;
+  b.skill_level()[7] ^= 1;
+  EXPECT_NE(PayloadHash(b), h);
+  b = *a;
+  std::swap(b.delta_value()[0], b.delta_value()[1]);
+  EXPECT_NE(PayloadHash(b), h);
+}
+
+TEST(TransitionBatch, HashBytesSeesEveryWordAndChainsThroughEmptyPieces) {
+  float base[24] = {0};
+  for (int i = 0; i < 24; ++i) {
+    float c[24] = {0};
+    c[i] = 1.0f;
+    EXPECT_NE(HashBytes(c, sizeof(c)), HashBytes(base, sizeof(base))) << i;
+    // an empty piece chained after it must not erase it
+    EXPECT_NE(HashBytes(c, 0, HashBytes(c, sizeof(c))), HashBytes(base, 0, HashBytes(base, sizeof(base)))) << i;
+  }
 }
 
 TEST(TransitionBatch, LayoutHashSeparatesEnvsAndDims) {
@@ -114,18 +147,3 @@ TEST(TransitionBatch, LayoutHashSeparatesEnvsAndDims) {
 
 }  // namespace
 }  // namespace coins
-namespace coins { namespace {
-TEST(TransitionBatch, HashBytesSeesEveryWord) {
-  float a[24] = {0}, b[24] = {0};
-  a[1] = 1.0f;
-  b[1] = 2.0f;
-  EXPECT_NE(HashBytes(a, sizeof(a)), HashBytes(b, sizeof(b)));
-  for (int i = 0; i < 24; ++i) {
-    float c[24] = {0};
-    c[i] = 1.0f;
-    // an empty piece chained after it must not erase it
-    EXPECT_NE(HashBytes(c, 0, HashBytes(c, sizeof(c))), HashBytes(b, 0, HashBytes(b, sizeof(b)))) << i;
-    EXPECT_NE(HashBytes(c, sizeof(c)), HashBytes(b, sizeof(b))) << i;
-  }
-}
-} }

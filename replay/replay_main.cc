@@ -96,8 +96,10 @@ int ReplayMain(int argc, char** argv) {
   heartbeat->Publish("running");
   spdlog::info("shard {} listening on partition {}", id, dds::ShardPartition(id));
 
+  // one preallocated sample that every take deserialises into
+  msg::TransitionBatch scratch;
   auto take = [&] {
-    return reader->TakeLoaned(64, [&](const msg::TransitionBatch& b, const eprosima::fastdds::dds::SampleInfo&) {
+    return reader->TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) {
       std::string why;
       if (shard.Receive(b, &why) == Shard::Outcome::kRejected && rejected_logged++ < 20)
         spdlog::warn("rejected: {}", why);

@@ -8,7 +8,7 @@
 
 #include "replay/ingest_ledger.h"
 #include "replay/replay_options.h"
-#include "replay/ring_store.h"
+#include "replay/chunk_store.h"
 
 namespace coins {
 
@@ -21,7 +21,7 @@ class Shard {
   Outcome Receive(const TransitionBatch& batch, std::string* why = nullptr);
 
   uint32_t id() const { return id_; }
-  const RingStore& store() const { return store_; }
+  const ChunkStore& store() const { return store_; }
   const IngestLedger& ledger() const { return ledger_; }
   uint64_t inserted_transitions() const { return inserted_transitions_; }
   uint64_t inserted_batches() const { return inserted_batches_; }
@@ -29,7 +29,7 @@ class Shard {
 
  private:
   uint32_t id_;
-  RingStore store_;
+  ChunkStore store_;
   IngestLedger ledger_;
   uint64_t inserted_transitions_ = 0;
   uint64_t inserted_batches_ = 0;

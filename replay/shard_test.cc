@@ -8,13 +8,14 @@
 namespace coins {
 namespace {
 
+// a batch of `rows` rows whose state feature 0 counts rows from `base`
 std::unique_ptr<TransitionBatch> Batch(uint32_t actor, uint64_t inc, uint64_t seq, uint32_t rows, float base) {
   auto b = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
   builder.Begin(b.get(), {.actor_id = actor, .incarnation = inc, .seq = seq, .layout_hash = LayoutHash("t", 3, 1, 0),
                           .state_dim = 3, .action_dim = 1}, 0);
   for (uint32_t r = 0; r < rows; ++r) {
-    float s[3] = {base + r, base * 2 + r, -1.0f * r};
+    float s[3] = {base + r, 7.0f, -1.0f * (r % 2)};
     float a[1] = {float(r % 4)};
     builder.AddRow(s, a, {}, 0.5f * r, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, r & 1);
   }
@@ -23,9 +24,10 @@ std::unique_ptr<TransitionBatch> Batch(uint32_t actor, uint64_t inc, uint64_t se
   return b;
 }
 
-ReplayOptions Small(int64_t capacity) {
+ReplayOptions Small(int64_t capacity, int64_t mb = 16) {
   ReplayOptions o;
   o.capacity = capacity;
+  o.capacity_mb = mb;
   return o;
 }
 
@@ -57,7 +59,7 @@ TEST(Shard, RejectsMalformedAndMismatchedBatches) {
   Shard shard(0, Small(4096));
   ASSERT_EQ(shard.Receive(*Batch(1, 1, 0, 10, 0)), Shard::Outcome::kStored);
   auto nan = Batch(1, 1, 1, 10, 0);
-  nan->values()[4] = std::nanf("");
+  nan->delta_value()[0] = std::nanf("");
   std::string why;
   EXPECT_EQ(shard.Receive(*nan, &why), Shard::Outcome::kRejected);
   EXPECT_NE(why.find("non-finite"), std::string::npos);
@@ -69,22 +71,64 @@ TEST(Shard, RejectsMalformedAndMismatchedBatches) {
   builder.Finish();
   EXPECT_EQ(shard.Receive(*other, &why), Shard::Outcome::kRejected);
   EXPECT_NE(why.find("layout"), std::string::npos);
-  EXPECT_EQ(shard.rejected(), 2u);
+  // a payload that does not match its hash is not kept
+  auto flipped = Batch(1, 1, 2, 10, 0);
+  flipped->action()[7] += 1.0f;
+  EXPECT_EQ(shard.Receive(*flipped, &why), Shard::Outcome::kRejected);
+  EXPECT_NE(why.find("payload hash mismatch"), std::string::npos);
+  EXPECT_EQ(shard.rejected(), 3u);
   EXPECT_EQ(shard.store().transitions(), 9);
+  EXPECT_EQ(shard.store().chunks(), 1u);
 }
 
-TEST(Shard, RingEvictsOldestAndStoredCopyMatches) {
-  // capacity 2048 rows, batches of 1000 rows: the third batch wraps early and evicts the first
-  Shard shard(0, Small(2048));
+TEST(Shard, ChunksDecodeToWhatWasSent) {
+  Shard shard(0, Small(100000));
+  for (uint64_t seq = 0; seq < 3; ++seq) ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 50, 100.0f * seq)), Shard::Outcome::kStored);
+  ASSERT_EQ(shard.store().chunks(), 3u);
+  std::vector<float> states(50 * 3);
+  shard.store().DecodeStates(2, states.data());
+  for (uint32_t r = 0; r < 50; ++r) {
+    EXPECT_EQ(states[r * 3 + 0], 200.0f + r);
+    EXPECT_EQ(states[r * 3 + 1], 7.0f);
+    EXPECT_EQ(states[r * 3 + 2], -1.0f * (r % 2));
+    EXPECT_EQ(shard.store().rewards(2)[r], 0.5f * r);
+    EXPECT_EQ(shard.store().actions(2)[r], float(r % 4));
+  }
+  EXPECT_EQ(shard.store().flags(2)[0], msg::ROW_SEGMENT_START);
+}
+
+TEST(Shard, EvictsOldestByTransitionsAndKeepsChecksums) {
+  // room for 2000 transitions, batches of 1000 rows (999 transitions): the third evicts the first
+  Shard shard(0, Small(2000));
   for (uint64_t seq = 0; seq < 3; ++seq) ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 1000, float(seq))), Shard::Outcome::kStored);
-  EXPECT_EQ(shard.store().rows(), 2000);
+  EXPECT_EQ(shard.store().chunks(), 2u);
   EXPECT_EQ(shard.store().transitions(), 2 * 999);
-  // rows 0..999 now hold batch 2
-  EXPECT_EQ(shard.store().state(5)[0], 2.0f + 5);
-  EXPECT_EQ(shard.store().state(1005)[0], 1.0f + 5);
+  EXPECT_EQ(shard.store().chunk(0).seq, 1u);
   uint64_t expected = 0;
   for (uint64_t seq = 0; seq < 3; ++seq) expected += Batch(1, 1, seq, 1000, float(seq))->payload_hash();
   EXPECT_EQ(shard.ledger().actors().at(1).checksum, expected);
+}
+
+TEST(Shard, ArenaRingWrapsAndEvictsOnlyWhatItOverwrites) {
+  // a 16 MiB arena holds a few hundred small chunks: push many laps through it
+  Shard shard(0, Small(int64_t(1) << 30, 16));
+  std::vector<float> states(64 * 3);
+  for (uint64_t seq = 0; seq < 20000; ++seq) {
+    ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 64, float(seq))), Shard::Outcome::kStored);
+    // the newest and the oldest chunk held decode to what was sent
+    const auto& store = shard.store();
+    if (seq % 997 == 0 || seq == 19999) {
+      for (size_t i : {size_t(0), store.chunks() - 1}) {
+        store.DecodeStates(i, states.data());
+        EXPECT_EQ(states[5 * 3], float(store.chunk(i).seq) + 5) << "seq " << seq << " chunk " << i;
+      }
+      EXPECT_EQ(store.chunk(store.chunks() - 1).seq, seq);
+      // chunks are consecutive: nothing in the middle was overwritten
+      for (size_t i = 1; i < store.chunks(); ++i) ASSERT_EQ(store.chunk(i).seq, store.chunk(i - 1).seq + 1);
+    }
+  }
+  EXPECT_GT(shard.store().chunks(), 100u);
+  EXPECT_LE(shard.store().bytes_used(), int64_t(16) << 20);
 }
 
 }  // namespace

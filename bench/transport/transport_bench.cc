@@ -30,6 +30,7 @@ struct Args {
   double seconds = 2.0;
   int repeats = 5;
   bool json = false;
+  std::string only;  // "standalone" or "transport": measure one kind (for profiling)
 };
 
 // steps per second of one actor run of `seconds` into `sink` (including the final flush)
@@ -56,6 +57,7 @@ int Main(int argc, char** argv) {
   app.add_option("--seconds", a.seconds, "seconds per measurement")->check(CLI::PositiveNumber);
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_flag("--json", a.json, "print one JSON object");
+  app.add_option("--only", a.only, "measure only one kind (for profiling)")->check(CLI::IsMember({"standalone", "transport"}));
   CLI11_PARSE(app, argc, argv);
   SetupLogging("bench", "warn");
 
@@ -98,8 +100,8 @@ int Main(int argc, char** argv) {
   }
   std::vector<double> standalone, transport;
   for (int r = 0; r < a.repeats; ++r) {
-    standalone.push_back(TimedRun(a, &memory_sink, r + 1));
-    transport.push_back(TimedRun(a, &dds_sink, r + 1));
+    if (a.only != "transport") standalone.push_back(TimedRun(a, &memory_sink, r + 1));
+    if (a.only != "standalone") transport.push_back(TimedRun(a, &dds_sink, r + 1));
   }
   stop = true;
   StopAll(shard, std::chrono::seconds(10));
@@ -109,7 +111,6 @@ int Main(int argc, char** argv) {
   f.AddMedian("standalone_steps_per_s", standalone, "steps/s");
   f.AddMedian("transport_steps_per_s", transport, "steps/s");
   f.Add("transport_ratio", f.Get("transport_steps_per_s") / f.Get("standalone_steps_per_s"), "ratio");
-  f.Add("batch_bytes", double(sizeof(msg::TransitionBatch)), "bytes");
   f.Print(a.json);
   return 0;
 }

@@ -14,7 +14,6 @@
 #include <string>
 #include <vector>
 
-#include <fastdds/dds/core/LoanableSequence.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -66,29 +65,20 @@ class Reader {
   // takes every available sample (copying), calling fn(sample, info) for valid data
   template <typename Fn>
   int TakeAll(Fn&& fn) {
-    int n = 0;
     T sample;
-    fdds::SampleInfo info;
-    while (r_->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
-      if (!info.valid_data) continue;
-      fn(sample, info);
-      ++n;
-    }
-    return n;
+    return TakeAll(sample, std::forward<Fn>(fn));
   }
-  // takes up to max samples by loan (zero-copy with data-sharing), calling fn(sample, info)
+  // takes every available sample into `scratch` (reused, so its sequences keep their
+  // capacity), calling fn(scratch, info) for valid data
   template <typename Fn>
-  int TakeLoaned(int max, Fn&& fn) {
-    fdds::LoanableSequence<T> data;
-    fdds::SampleInfoSeq infos;
-    if (r_->take(data, infos, max) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) return 0;
+  int TakeAll(T& scratch, Fn&& fn) {
     int n = 0;
-    for (fdds::LoanableCollection::size_type i = 0; i < infos.length(); ++i) {
-      if (!infos[i].valid_data) continue;
-      fn(data[i], infos[i]);
+    fdds::SampleInfo info;
+    while (r_->take_next_sample(&scratch, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      fn(scratch, info);
       ++n;
     }
-    r_->return_loan(data, infos);
     return n;
   }
   fdds::DataReader* raw() const { return r_; }

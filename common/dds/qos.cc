@@ -24,9 +24,11 @@ DataWriterQos TransitionWriterQos(const DdsOptions& options) {
   q.resource_limits().max_instances = 1;
   q.resource_limits().max_samples_per_instance = static_cast<int32_t>(options.transition_history);
   q.resource_limits().allocated_samples = static_cast<int32_t>(options.transition_history);
-  q.data_sharing().automatic();
-  q.reliable_writer_qos().times.heartbeatPeriod = Seconds(0.05);
-  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
+  q.data_sharing().off();
+  // history slots are freed by acknowledgements, which answer heartbeats: beat often
+  q.reliable_writer_qos().times.heartbeatPeriod = Seconds(0.002);
+  // payloads sized to what batches use (their bounds are far larger), reused once allocated
+  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   return q;
 }
 
@@ -35,14 +37,15 @@ DataReaderQos TransitionReaderQos(const DdsOptions& options) {
   q.reliability().kind = RELIABLE_RELIABILITY_QOS;
   q.durability().kind = VOLATILE_DURABILITY_QOS;
   q.history().kind = KEEP_ALL_HISTORY_QOS;
-  // one instance per actor (actor_id is the key), each with room for its writer's full history
-  int32_t per_actor = static_cast<int32_t>(options.transition_history) * 2;
-  q.resource_limits().max_instances = 1024;
-  q.resource_limits().max_samples_per_instance = per_actor;
-  q.resource_limits().max_samples = 1024 * per_actor;
+  // every actor of the shard in one unkeyed instance, with room for several full writer histories
+  int32_t depth = static_cast<int32_t>(options.transition_history) * 4;
+  q.resource_limits().max_instances = 1;
+  q.resource_limits().max_samples_per_instance = depth;
+  q.resource_limits().max_samples = depth;
   q.resource_limits().allocated_samples = static_cast<int32_t>(options.transition_history);
-  q.data_sharing().automatic();
-  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
+  q.data_sharing().off();
+  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  q.reliable_reader_qos().times.heartbeatResponseDelay = Seconds(0.0);
   return q;
 }
 

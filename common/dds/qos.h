@@ -9,8 +9,10 @@
 
 namespace coins::dds {
 
-// transitions: reliable, keep-all with a bounded history (back-pressure instead of loss),
-// data-sharing on one host, a short heartbeat so acknowledgements return quickly
+// transitions: reliable, keep-all with a bounded history (back-pressure instead of loss), a
+// short heartbeat so acknowledgements free history slots quickly. Data-sharing stays off: its
+// readers acknowledge samples on arrival, after which the writer may reuse their memory while
+// the shard still reads it (seen as corrupt and lost batches with Fast DDS 2.9).
 eprosima::fastdds::dds::DataWriterQos TransitionWriterQos(const DdsOptions& options);
 eprosima::fastdds::dds::DataReaderQos TransitionReaderQos(const DdsOptions& options);
 

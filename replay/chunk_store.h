@@ -5,12 +5,21 @@
 // the arena's end: the ring wraps early and the tail stays unused until the next lap.
 //
 // The layout is fixed by the first batch (Configure); Insert() expects a batch that passed
-// ValidateBatch with that layout. Chunks are numbered from the oldest (0) to the newest.
-// Not thread-safe.
+// ValidateBatch with that layout. Chunks are numbered from the oldest (0) to the newest; each
+// also has a global id (ids and global row numbers only grow), so that sampling keys stay
+// valid while the ring moves. Rows are bounded too (row_capacity, 2 x capacity by default),
+// which bounds the slots a per-row index needs.
+//
+// Continuity: a chunk that continues the previous chunk of the same actor, incarnation and env
+// (its row 0 repeats that chunk's last state) is linked from it (ChunkInfo.next), so episodes
+// and skill segments can be followed across chunks. The caller says whether a batch continues
+// (no sequence gap before it). Not thread-safe.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "common/status.h"
@@ -27,6 +36,13 @@ struct ChunkInfo {
   uint32_t actor_id = 0;
   uint32_t env_id = 0;
   uint64_t seq = 0;
+  uint64_t incarnation = 0;
+  uint64_t episode_base = 0;
+  uint64_t id = 0;           // global chunk id
+  uint64_t row_base = 0;     // global row number of row 0
+  uint64_t next = kNoChunk;  // id of the chunk continuing this one
+  bool continues = false;    // this chunk continues an earlier one
+  static constexpr uint64_t kNoChunk = ~uint64_t(0);
 };
 
 class ChunkStore {
@@ -40,12 +56,34 @@ class ChunkStore {
   uint32_t layout_hash() const { return layout_; }
 
   // copies the batch in; returns the hash of the stored copy (equal to the batch's payload
-  // hash when the copy is intact)
-  uint64_t Insert(const TransitionBatch& batch);
+  // hash when the copy is intact). `continues`: the batch follows the last one of its
+  // actor/env without a gap.
+  uint64_t Insert(const TransitionBatch& batch, bool continues = false);
+  // restores a chunk saved by a snapshot: `info` as chunk() gave it (offset, id, row_base and
+  // next are assigned anew), `bytes` its info.bytes bytes. Fails on a size that does not match.
+  Status InsertRaw(const ChunkInfo& info, const uint8_t* bytes);
+  // called with each chunk just before it is evicted (dropped from the ring)
+  void SetEvictHook(std::function<void(const ChunkInfo&)> hook) { evict_hook_ = std::move(hook); }
   // removes the chunk of the last Insert (a batch whose stored copy failed its hash)
   void DropLast();
 
   int64_t capacity() const { return capacity_transitions_; }
+  int64_t capacity_bytes() const { return arena_bytes_; }
+  int64_t row_capacity() const { return row_capacity_; }
+  uint32_t state_dim() const { return state_dim_; }
+  uint32_t action_dim() const { return action_dim_; }
+  uint32_t goal_dim() const { return goal_dim_; }
+  // global ids: chunks held are [first_id(), end_id()), rows held are [first_row(), end_row())
+  uint64_t first_id() const { return count_ ? chunk(0).id : next_id_; }
+  uint64_t end_id() const { return next_id_; }
+  uint64_t first_row() const { return count_ ? chunk(0).row_base : next_row_; }
+  uint64_t end_row() const { return next_row_; }
+  // index (0 = oldest) of the chunk with global id `id`, or -1 when it is not held
+  int64_t IndexOf(uint64_t id) const {
+    return (id >= first_id() && id < next_id_) ? int64_t(id - first_id()) : -1;
+  }
+  // index of the chunk holding global row `row` (first_row() <= row < end_row()), O(log chunks)
+  size_t ChunkOfRow(uint64_t row) const;
   int64_t transitions() const { return transitions_; }
   int64_t rows() const { return rows_; }
   int64_t bytes_used() const { return bytes_; }
@@ -58,17 +96,31 @@ class ChunkStore {
   const float* rewards(size_t i) const;
   const uint16_t* flags(size_t i) const;
   const float* actions(size_t i) const;  // n_rows x action_dim
+  const float* goals(size_t i) const;    // n_rows x goal_dim
+  const uint8_t* skill_levels(size_t i) const;
+  // the state of row r of chunk i (state_dim floats), decoded from first_state and deltas
+  void DecodeRow(size_t i, uint32_t r, float* out) const;
+  // the deltas of row r (r >= 1): features changed from row r-1 to row r
+  void RowDeltas(size_t i, uint32_t r, const uint16_t** index, const float** value, uint32_t* n) const;
+  // the chunk's stored bytes (chunk(i).bytes of them)
+  const uint8_t* bytes(size_t i) const { return arena_.get() + chunk(i).offset; }
+  // hash of the stored copy, as Insert computed it
+  uint64_t StoredHash(size_t i) const;
 
  private:
   struct Offsets {  // where each column of a chunk starts, relative to the chunk
     int64_t first_state, delta_end, delta_index, delta_value, action, goal, reward, flags, skill, interactions, end;
   };
   Offsets Layout(uint32_t n_rows, uint32_t n_deltas) const;
+  // evicts until a chunk of `bytes`, `rows` and `transitions` fits; returns its offset
+  int64_t MakeRoom(int64_t bytes, uint32_t rows, uint32_t transitions);
+  void Append(ChunkInfo info, bool continues);
   void EvictOldest();
   bool OldestOverlaps(int64_t begin, int64_t end) const;
 
   int64_t capacity_transitions_;
   int64_t arena_bytes_;
+  int64_t row_capacity_;
   uint32_t layout_ = 0;
   uint32_t state_dim_ = 0, action_dim_ = 0, goal_dim_ = 0;
   std::unique_ptr<uint8_t[]> arena_;
@@ -76,6 +128,9 @@ class ChunkStore {
   size_t first_ = 0, count_ = 0;
   int64_t head_ = 0;             // next free byte in the arena
   int64_t transitions_ = 0, rows_ = 0, bytes_ = 0;
+  uint64_t next_id_ = 0, next_row_ = 0;
+  std::unordered_map<uint64_t, uint64_t> last_of_stream_;  // (actor << 32 | env) -> newest chunk id
+  std::function<void(const ChunkInfo&)> evict_hook_;
 };
 
 }  // namespace coins

@@ -28,6 +28,12 @@ class IngestLedger {
   const std::map<uint32_t, ActorLedger>& actors() const { return actors_; }
   uint64_t duplicates() const { return duplicates_; }
   uint64_t gaps() const { return gaps_; }
+  // restores the state a snapshot saved
+  void Restore(uint32_t actor_id, const ActorLedger& a) { actors_[actor_id] = a; }
+  void RestoreTotals(uint64_t duplicates, uint64_t gaps) {
+    duplicates_ = duplicates;
+    gaps_ = gaps;
+  }
 
  private:
   std::map<uint32_t, ActorLedger> actors_;

@@ -1,6 +1,12 @@
-// coins-replay: one replay shard. Takes TransitionBatches from partition shard-K, stores them,
-// and publishes ReplayStats.
+// coins-replay: one replay shard as a service. Threads: ingest (TransitionBatch from partition
+// shard-K into the store, waiting for the rate limiter), sampling (SampleRequest -> SampleReply,
+// PriorityUpdate), snapshots (periodic and on Control commands, beside traffic), and the main
+// thread (ReplayStats, heartbeat, Control). Every wait is bounded; threads join before exit.
+#include <condition_variable>
+#include <deque>
 #include <fstream>
+#include <set>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
@@ -10,30 +16,49 @@
 #include "common/dds/topics.h"
 #include "common/process.h"
 #include "common/run_options.h"
+#include "idl/controlPubSubTypes.h"
+#include "idl/samplingPubSubTypes.h"
 #include "idl/statusPubSubTypes.h"
 #include "idl/transitionPubSubTypes.h"
-#include "replay/shard.h"
+#include "replay/replay_service.h"
+#include "replay/sampling_topics.h"
 
 namespace coins {
 namespace {
 
-void FillStats(const Shard& shard, double insert_rate, msg::ReplayStats& s) {
-  s.size(shard.store().transitions());
-  s.capacity(shard.store().capacity());
-  s.inserted_transitions(shard.inserted_transitions());
-  s.inserted_batches(shard.inserted_batches());
-  s.duplicates(shard.ledger().duplicates());
-  s.gaps(shard.ledger().gaps());
-  s.rejected(shard.rejected());
+using namespace std::chrono_literals;
+
+void FillStats(const ReplayService::View& v, double insert_rate, msg::ReplayStats& s) {
+  s.schema_version(msg::REPLAY_STATS_SCHEMA);
+  s.shard_id(v.shard_id);
+  s.size(uint64_t(v.size));
+  s.capacity(uint64_t(v.capacity));
+  s.inserted_transitions(v.shard.inserted_transitions);
+  s.inserted_batches(v.shard.inserted_batches);
+  s.duplicates(v.duplicates);
+  s.gaps(v.gaps);
+  s.rejected(v.shard.rejected);
+  s.samples_served(v.service.samples_served);
   s.insert_rate(insert_rate);
+  s.bad_requests(v.service.bad_requests);
+  s.rate_limited(v.service.rate_limited);
+  s.insert_waits(v.service.insert_waits);
+  s.snapshots_written(v.service.snapshots_written);
+  s.snapshot_failures(v.service.snapshot_failures);
+  s.last_snapshot_command(v.service.last_snapshot_command);
+  s.last_snapshot_s(v.service.last_snapshot_s);
   s.actors().clear();
-  for (const auto& [id, a] : shard.ledger().actors()) {
+  for (const auto& [id, a] : v.actors) {
     msg::ActorIngest ai;
     ai.actor_id(id);
     ai.batches(a.batches);
     ai.transitions(a.transitions);
     ai.payload_checksum(a.checksum);
     ai.next_seq(a.next_seq);
+    if (auto it = v.stored.find(id); it != v.stored.end()) {
+      ai.stored_transitions(it->second.first);
+      ai.stored_checksum(it->second.second);
+    }
     s.actors().push_back(ai);
   }
 }
@@ -42,16 +67,55 @@ void WriteStatsJson(const std::string& path, const msg::ReplayStats& s) {
   nlohmann::json actors = nlohmann::json::array();
   for (const auto& a : s.actors())
     actors.push_back({{"actor_id", a.actor_id()}, {"batches", a.batches()}, {"transitions", a.transitions()},
-                      {"payload_checksum", a.payload_checksum()}, {"next_seq", a.next_seq()}});
-  nlohmann::json j = {{"shard_id", s.shard_id()},       {"size", s.size()},
-                      {"capacity", s.capacity()},       {"inserted_transitions", s.inserted_transitions()},
-                      {"inserted_batches", s.inserted_batches()}, {"duplicates", s.duplicates()},
-                      {"gaps", s.gaps()},               {"rejected", s.rejected()},
+                      {"payload_checksum", a.payload_checksum()}, {"next_seq", a.next_seq()},
+                      {"stored_transitions", a.stored_transitions()}, {"stored_checksum", a.stored_checksum()}});
+  nlohmann::json j = {{"shard_id", s.shard_id()}, {"size", s.size()}, {"capacity", s.capacity()},
+                      {"inserted_transitions", s.inserted_transitions()}, {"inserted_batches", s.inserted_batches()},
+                      {"duplicates", s.duplicates()}, {"gaps", s.gaps()}, {"rejected", s.rejected()},
+                      {"samples_served", s.samples_served()}, {"bad_requests", s.bad_requests()},
+                      {"rate_limited", s.rate_limited()}, {"snapshots_written", s.snapshots_written()},
+                      {"snapshot_failures", s.snapshot_failures()},
+                      {"restored_transitions", s.restored_transitions()}, {"corrupt_snapshots", s.corrupt_snapshots()},
                       {"actors", actors}};
   std::string tmp = path + ".tmp";
   std::ofstream(tmp) << j.dump() << "\n";
   std::rename(tmp.c_str(), path.c_str());
 }
+
+// snapshot requests (command ids; 0 = periodic) handed to the snapshot thread
+class SnapshotQueue {
+ public:
+  void Push(uint64_t id) {
+    {
+      std::lock_guard lock(mu_);
+      q_.push_back(id);
+    }
+    cv_.notify_one();
+  }
+  // waits up to timeout; false when nothing came
+  bool Pop(uint64_t* id, std::chrono::milliseconds timeout) {
+    std::unique_lock lock(mu_);
+    if (!cv_.wait_for(lock, timeout, [&] { return !q_.empty(); })) return false;
+    *id = q_.front();
+    q_.pop_front();
+    return true;
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<uint64_t> q_;
+};
+
+// joins its threads when it goes out of scope
+struct Joiner {
+  std::vector<std::thread> threads;
+  ~Joiner() {
+    RequestStop();
+    for (auto& t : threads)
+      if (t.joinable()) t.join();
+  }
+};
 
 int ReplayMain(int argc, char** argv) {
   ProcessMain main("coins-replay", "Runs one replay shard: stores transition batches and serves samples.");
@@ -59,16 +123,36 @@ int ReplayMain(int argc, char** argv) {
   ReplayOptions options;
   int64_t id = 0;
   std::string stats_out;
+  bool new_config = false;
   main.AddSection(ConfigSection::Of("run", run));
   main.AddSection(ConfigSection::Of("replay", options));
   main.app().add_option("--id", id, "shard id, in [0, run.shards)")->check(CLI::Range(0, 1 << 20));
   main.app().add_option("--stats-out", stats_out, "write the final ReplayStats as JSON to this file");
+  main.app().add_flag("--new-config", new_config,
+                      "on resume, this config wins over the snapshot's (same as replay.prefer_new_config=true)");
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (id >= run.shards) {
     std::cerr << "coins-replay: --id " << id << " is not below run.shards (" << run.shards << ")\n";
     return 2;
   }
+  if (new_config) options.prefer_new_config = true;
   if (main.name() == "coins-replay") main.name() = "replay-" + std::to_string(id);
+
+  // resume before joining DDS: a shard that is not ready does not take data
+  ResumeReport resume;
+  auto service_or = ReplayService::Open(uint32_t(id), options, &resume);
+  for (const auto& c : resume.corrupt) spdlog::warn("skipped snapshot: {}", c);
+  if (!service_or.ok()) {
+    spdlog::error("{}", service_or.status().message());
+    return 1;
+  }
+  ReplayService& service = **service_or;
+  if (!resume.snapshot.empty()) {
+    spdlog::info("resumed {} transitions from {} in {:.3f} s", resume.transitions, resume.snapshot, resume.seconds);
+    for (const auto& c : resume.config_changes)
+      spdlog::warn("config differs from the snapshot's: {} ({} wins{})", c, resume.new_config_won ? "new" : "snapshot",
+                   resume.new_config_won ? "" : "; pass --new-config to use the new one");
+  }
 
   auto node = dds::Node::Create(main.dds(), main.name());
   if (!node.ok()) {
@@ -77,58 +161,124 @@ int ReplayMain(int argc, char** argv) {
   }
   auto reader = (*node)->MakeReader<msg::TransitionBatchPubSubType>(
       dds::kTransitionTopic, dds::TransitionReaderQos(main.dds()), dds::ShardPartition(id));
+  auto requests = (*node)->MakeReader<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingReaderQos(64));
+  auto replies = (*node)->MakeWriter<msg::SampleReplyPubSubType>(dds::kSampleReplyTopic, dds::SamplingWriterQos(8));
+  auto updates = (*node)->MakeReader<msg::PriorityUpdatePubSubType>(dds::kPriorityUpdateTopic, dds::SamplingReaderQos(64));
+  auto control = (*node)->MakeReader<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandReaderQos());
   auto stats_writer = (*node)->MakeWriter<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusWriterQos());
   auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "replay");
-  if (!reader.ok() || !stats_writer.ok() || !heartbeat.ok()) {
-    spdlog::error("cannot open DDS topics: {}{}{}", reader.status().message(), stats_writer.status().message(),
-                  heartbeat.status().message());
-    return 1;
-  }
+  for (const Status* s : {&reader.status(), &requests.status(), &replies.status(), &updates.status(), &control.status(),
+                          &stats_writer.status(), &heartbeat.status()})
+    if (!s->ok()) {
+      spdlog::error("cannot open DDS topics: {}", s->message());
+      return 1;
+    }
 
-  Shard shard(static_cast<uint32_t>(id), options);
+  uint64_t rejected_logged = 0;
+  SnapshotQueue snapshots;
+  std::atomic<bool> ingest_done{false};
+  Joiner joiner;
+
+  // ingest: the rate limiter may hold a batch; the DDS history then backs up to the actors
+  joiner.threads.emplace_back([&] {
+    msg::TransitionBatch scratch;
+    auto take = [&] {
+      return reader->TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) {
+        std::string why;
+        for (;;) {
+          auto r = service.Insert(b, 100ms, &why);
+          if (r == ReplayService::InsertResult::kTimedOut && !StopRequested()) continue;
+          if (r == ReplayService::InsertResult::kRejected && rejected_logged++ < 20) spdlog::warn("rejected: {}", why);
+          break;
+        }
+      });
+    };
+    while (!StopRequested())
+      if (reader->Wait(50ms)) take();
+    // store what was already delivered before leaving
+    service.Close();
+    while (take() > 0) {
+    }
+    ingest_done = true;
+  });
+
+  // sampling service
+  joiner.threads.emplace_back([&] {
+    msg::SampleRequest req;
+    msg::SampleReply reply;
+    msg::PriorityUpdate up;
+    while (!StopRequested()) {
+      requests->Wait(20ms);
+      requests->TakeAll(req, [&](const msg::SampleRequest& q, const auto&) {
+        if (q.shard_id() >= 0 && q.shard_id() != id) return;
+        service.Sample(q, &reply, 10s);
+        if (!replies->Write(reply)) spdlog::warn("sample reply {} not sent (writer timed out)", q.correlation_id());
+      });
+      updates->TakeAll(up, [&](const msg::PriorityUpdate& u, const auto&) {
+        if (u.shard_id() == uint32_t(id)) service.Update(u.kind(), u.key(), u.value());
+      });
+    }
+  });
+
+  // snapshots: one at a time, beside traffic
+  joiner.threads.emplace_back([&] {
+    const auto period = std::chrono::duration<double>(options.snapshot_period_s);
+    auto next = std::chrono::steady_clock::now() + period;
+    while (!StopRequested()) {
+      uint64_t command = 0;
+      bool asked = snapshots.Pop(&command, 100ms);
+      bool due = options.snapshot_period_s > 0 && std::chrono::steady_clock::now() >= next;
+      if (!asked && !due) continue;
+      if (due) next = std::chrono::steady_clock::now() + period;
+      auto r = service.Snapshot(command);
+      if (r.ok())
+        spdlog::info("snapshot {}: {} transitions, {} bytes in {:.3f} s (command {})", r->path, r->transitions, r->bytes,
+                     r->seconds, command);
+      else
+        spdlog::warn("snapshot failed: {}", r.status().message());
+    }
+  });
+
   msg::ReplayStats stats;
-  stats.schema_version(msg::STATUS_SCHEMA);
-  stats.shard_id(static_cast<uint32_t>(id));
+  stats.restored_transitions(resume.transitions);
+  stats.corrupt_snapshots(resume.corrupt.size());
   auto period = std::chrono::duration<double>(options.status_period_s);
   auto last = std::chrono::steady_clock::now();
-  uint64_t last_inserted = 0;
-  uint64_t rejected_logged = 0;
+  uint64_t last_inserted = service.Stats(false).shard.inserted_transitions;
+  std::set<uint64_t> commands_seen;
   heartbeat->Publish("running");
   spdlog::info("shard {} listening on partition {}", id, dds::ShardPartition(id));
-
-  // one preallocated sample that every take deserialises into
-  msg::TransitionBatch scratch;
-  auto take = [&] {
-    return reader->TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) {
-      std::string why;
-      if (shard.Receive(b, &why) == Shard::Outcome::kRejected && rejected_logged++ < 20)
-        spdlog::warn("rejected: {}", why);
-    });
-  };
+  msg::Control cmd;
   while (!StopRequested()) {
-    if (reader->Wait(std::chrono::milliseconds(50))) take();
+    control->Wait(50ms);
+    control->TakeAll(cmd, [&](const msg::Control& c, const auto&) {
+      bool mine = c.target() == "all" || c.target() == "replay" || c.target() == main.name();
+      if (!mine || !commands_seen.insert(c.command_id()).second) return;
+      if (c.command() == msg::CONTROL_SNAPSHOT) snapshots.Push(c.command_id());
+      if (c.command() == msg::CONTROL_STOP) RequestStop();
+    });
     auto now = std::chrono::steady_clock::now();
     if (now - last >= period) {
       double dt = std::chrono::duration<double>(now - last).count();
-      FillStats(shard, (shard.inserted_transitions() - last_inserted) / dt, stats);
+      auto v = service.Stats(false);
+      FillStats(v, (v.shard.inserted_transitions - last_inserted) / dt, stats);
       stats_writer->Write(stats);
       heartbeat->Publish("running");
       last = now;
-      last_inserted = shard.inserted_transitions();
+      last_inserted = v.shard.inserted_transitions;
     }
   }
 
-  // store what was already delivered before leaving
-  while (take() > 0) {
-  }
   heartbeat->Publish("stopping");
-  FillStats(shard, 0.0, stats);
+  service.Close();
+  for (auto& t : joiner.threads) t.join();
+  FillStats(service.Stats(true), 0.0, stats);
   stats_writer->Write(stats);
-  stats_writer->WaitAcked(std::chrono::milliseconds(500));
+  stats_writer->WaitAcked(500ms);
   if (!stats_out.empty()) WriteStatsJson(stats_out, stats);
-  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} rejected",
-               shard.inserted_transitions(), shard.inserted_batches(), stats.duplicates(), stats.gaps(),
-               stats.rejected());
+  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} rejected, {} samples served",
+               stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(),
+               stats.rejected(), stats.samples_served());
   return 0;
 }
 

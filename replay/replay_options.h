@@ -2,8 +2,12 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "common/config/config.h"
+#include "idl/sampling.h"
+#include "idl/transition.h"
+#include "replay/rate_limiter.h"
 
 namespace coins {
 
@@ -15,13 +19,44 @@ struct ReplayOptions {
   int64_t capacity_mb = 512;
   // seconds between ReplayStats / heartbeat publications
   double status_period_s = 1.0;
+  // rate limiter (replay/rate_limiter.h): sampling starts at min_size transitions; with
+  // samples_per_insert > 0 the sampled/inserted ratio stays within error_buffer of it
+  int64_t min_size = 1;
+  double samples_per_insert = 0;
+  double error_buffer = 0;
+  // prioritised sampling exponents
+  double priority_exponent = 0.6;
+  double importance_exponent = 0.4;
+  // hindsight walk bound (rows)
+  int64_t max_segment_rows = 1000;
+  // snapshots: directory ("" = none), period (0 = only on command), how many to keep
+  std::string snapshot_dir;
+  double snapshot_period_s = 0;
+  int64_t snapshot_keep = 3;
+  // on resume, a config that differs from the snapshot's: false = the snapshot's wins
+  // (reported), true = this config wins (also reported)
+  bool prefer_new_config = false;
 
   void Visit(ConfigVisitor& v) {
     v.Int("capacity", capacity, 1024, int64_t(1) << 34, "transitions per shard");
     v.Int("capacity_mb", capacity_mb, 16, int64_t(1) << 20, "chunk arena per shard (MiB)");
     v.Float("status_period_s", status_period_s, 0.05, 3600, "status period (s)");
+    v.Int("min_size", min_size, 1, int64_t(1) << 34, "transitions held before sampling starts");
+    v.Float("samples_per_insert", samples_per_insert, 0, 1e6, "sampled / inserted transitions (0: no limit)");
+    v.Float("error_buffer", error_buffer, 0, 1e15, "allowed deviation from samples_per_insert (transitions)");
+    v.Float("priority_exponent", priority_exponent, 0, 10, "prioritised replay alpha");
+    v.Float("importance_exponent", importance_exponent, 0, 10, "prioritised replay beta");
+    v.Int("max_segment_rows", max_segment_rows, 1, 1 << 20, "hindsight walk bound (rows)");
+    v.String("snapshot_dir", snapshot_dir, {}, "snapshot directory (empty: no snapshots)");
+    v.Float("snapshot_period_s", snapshot_period_s, 0, 1e7, "seconds between snapshots (0: on command only)");
+    v.Int("snapshot_keep", snapshot_keep, 1, 1000, "snapshots kept per shard");
+    v.Bool("prefer_new_config", prefer_new_config, "on resume, this config wins over the snapshot's");
   }
-  Status Validate() const { return Status::Ok(); }
+  RateLimiterConfig rate() const { return {min_size, samples_per_insert, error_buffer}; }
+  Status Validate() const {
+    return RateLimiter::Check(rate(), capacity, COINS_BATCH_MAX_ROWS, COINS_SAMPLE_MAX_BATCH)
+        .WithContext("replay");
+  }
 };
 
 }  // namespace coins

@@ -1,39 +1,62 @@
 // Shard: what a replay shard does with each received TransitionBatch, independent of DDS:
 // validate it (malformed batches are rejected and counted, never stored), drop duplicates,
-// store it, and keep the per-actor ledger. Not thread-safe.
+// store it, keep the per-actor ledger and the per-row priorities. Not thread-safe: the replay
+// service guards a Shard with its lock.
 #pragma once
 
 #include <cstdint>
 #include <string>
 
-#include "replay/ingest_ledger.h"
-#include "replay/replay_options.h"
 #include "replay/chunk_store.h"
+#include "replay/ingest_ledger.h"
+#include "replay/priorities.h"
+#include "replay/replay_options.h"
 
 namespace coins {
+
+struct ShardCounters {
+  uint64_t inserted_transitions = 0;
+  uint64_t inserted_batches = 0;
+  uint64_t rejected = 0;
+};
 
 class Shard {
  public:
   Shard(uint32_t shard_id, const ReplayOptions& options);
+  Shard(const Shard&) = delete;
+  Shard& operator=(const Shard&) = delete;
 
   enum class Outcome { kStored, kDuplicate, kRejected };
   // handles one batch; on kRejected, `why` (if given) receives the reason
   Outcome Receive(const TransitionBatch& batch, std::string* why = nullptr);
+  // the checks of Receive that need no state change: validation against the layout held
+  Status Check(const TransitionBatch& batch) const;
 
   uint32_t id() const { return id_; }
   const ChunkStore& store() const { return store_; }
   const IngestLedger& ledger() const { return ledger_; }
-  uint64_t inserted_transitions() const { return inserted_transitions_; }
-  uint64_t inserted_batches() const { return inserted_batches_; }
-  uint64_t rejected() const { return rejected_; }
+  const Priorities& priorities() const { return prio_; }
+  Priorities& priorities() { return prio_; }
+  uint64_t inserted_transitions() const { return c_.inserted_transitions; }
+  uint64_t inserted_batches() const { return c_.inserted_batches; }
+  uint64_t rejected() const { return c_.rejected; }
+  const ShardCounters& counters() const { return c_; }
+
+  // per-actor transitions held and the sum of their stored-copy hashes, recomputed from the
+  // arena (what a checksum test compares with the ledger)
+  std::map<uint32_t, std::pair<uint64_t, uint64_t>> StoredByActor() const;
+
+  // restore path (snapshots): the store, ledger and counters are refilled in place
+  ChunkStore& mutable_store() { return store_; }
+  IngestLedger& mutable_ledger() { return ledger_; }
+  void RestoreCounters(const ShardCounters& c) { c_ = c; }
 
  private:
   uint32_t id_;
   ChunkStore store_;
   IngestLedger ledger_;
-  uint64_t inserted_transitions_ = 0;
-  uint64_t inserted_batches_ = 0;
-  uint64_t rejected_ = 0;
+  Priorities prio_;
+  ShardCounters c_;
 };
 
 }  // namespace coins

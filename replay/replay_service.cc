@@ -1,0 +1,166 @@
+#include "replay/replay_service.h"
+
+#include <spdlog/spdlog.h>
+
+namespace coins {
+
+ReplayService::ReplayService(uint32_t shard_id, const ReplayOptions& options)
+    : options_(options),
+      shard_(shard_id, options),
+      limiter_(options.rate()),
+      sampler_(SamplerOptions{options.importance_exponent, options.max_segment_rows, 64}),
+      rng_(0x5eed0000ULL + shard_id) {}
+
+Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, ReplayOptions options,
+                                                           ResumeReport* report) {
+  auto start = std::chrono::steady_clock::now();
+  SnapshotImage image;
+  bool have = false;
+  // newest valid snapshot first; a corrupt one is reported and the previous one tried
+  if (!options.snapshot_dir.empty()) {
+    for (const auto& path : ListSnapshots(options.snapshot_dir, shard_id)) {
+      auto img = ReadSnapshot(path);
+      if (!img.ok()) {
+        report->corrupt.push_back(img.status().message());
+        continue;
+      }
+      image = std::move(*img);
+      report->snapshot = path.string();
+      have = true;
+      break;
+    }
+  }
+  if (have) {
+    report->config_changes = ConfigDifferences(image.config, options);
+    report->new_config_won = options.prefer_new_config;
+    if (!report->config_changes.empty() && !options.prefer_new_config) ApplySnapshotConfig(image.config, &options);
+    COINS_RETURN_IF_ERROR(options.Validate());
+  }
+  std::unique_ptr<ReplayService> s(new ReplayService(shard_id, options));
+  if (have) {
+    COINS_RETURN_IF_ERROR(RestoreShard(image, &s->shard_, &s->limiter_).WithContext(report->snapshot));
+    s->size_ = s->shard_.store().transitions();
+    report->transitions = uint64_t(s->size_.load());
+  }
+  report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return s;
+}
+
+ReplayService::InsertResult ReplayService::Insert(const TransitionBatch& b, std::chrono::milliseconds timeout,
+                                                  std::string* why) {
+  // malformed batches never reach the limiter
+  if (Status s = ValidateBatch(b, 0, false); !s.ok()) {
+    std::lock_guard lock(mu_);
+    std::string w;
+    shard_.Receive(b, &w);  // counts the rejection
+    if (why) *why = w;
+    return InsertResult::kRejected;
+  }
+  int64_t m = CountTransitions(b);
+  if (!limiter_.CanInsert(m, size_.load())) {
+    {
+      std::lock_guard lock(mu_);
+      counters_.insert_waits++;
+    }
+    if (!limiter_.AwaitInsert(m, size_.load(), timeout)) return InsertResult::kTimedOut;
+  } else if (!limiter_.AwaitInsert(m, size_.load(), std::chrono::milliseconds(0))) {
+    return InsertResult::kTimedOut;
+  }
+  Shard::Outcome o;
+  {
+    std::lock_guard lock(mu_);
+    o = shard_.Receive(b, why);
+    size_ = shard_.store().transitions();
+  }
+  limiter_.Notify();
+  return o == Shard::Outcome::kStored ? InsertResult::kStored
+         : o == Shard::Outcome::kDuplicate ? InsertResult::kDuplicate
+                                           : InsertResult::kRejected;
+}
+
+void ReplayService::Sample(const msg::SampleRequest& req, msg::SampleReply* reply, std::chrono::milliseconds max_wait) {
+  reply->schema_version(msg::SAMPLING_SCHEMA);
+  reply->correlation_id(req.correlation_id());
+  reply->shard_id(shard_.id());
+  reply->n(0);
+  reply->error("");
+  auto fail = [&](uint8_t status, const std::string& error) {
+    reply->status(status);
+    reply->error(error);
+    reply->n(0);
+    for (auto* v : {&reply->state(), &reply->next_value(), &reply->action(), &reply->goal(), &reply->reward(),
+                    &reply->discount(), &reply->weight()})
+      v->clear();
+    reply->next_end().clear();
+    reply->next_index().clear();
+    reply->key().clear();
+  };
+  uint32_t state_dim;
+  {
+    std::lock_guard lock(mu_);
+    state_dim = shard_.store().state_dim();
+  }
+  if (Status s = ValidateSampleRequest(req, state_dim == 0 ? COINS_BATCH_MAX_STATE : state_dim); !s.ok()) {
+    std::lock_guard lock(mu_);
+    counters_.bad_requests++;
+    reply->shard_size(uint64_t(size_.load()));
+    return fail(msg::SAMPLE_BAD_REQUEST, s.message());
+  }
+  auto wait = std::min(max_wait, std::chrono::milliseconds(req.timeout_ms()));
+  if (!limiter_.AwaitSample(req.batch_size(), [this] { return size_.load(); }, wait)) {
+    std::lock_guard lock(mu_);
+    counters_.rate_limited++;
+    reply->shard_size(uint64_t(size_.load()));
+    return fail(msg::SAMPLE_NOT_READY, fmt::format("shard {}: rate limiter: {} transitions held, not ready within {} ms",
+                                                   shard_.id(), size_.load(), wait.count()));
+  }
+  std::lock_guard lock(mu_);
+  reply->shard_size(uint64_t(shard_.store().transitions()));
+  Status s = ValidateSampleRequest(req, shard_.store().state_dim());
+  if (s.ok()) s = sampler_.Sample(shard_.store(), shard_.priorities(), req, reply, &rng_);
+  if (!s.ok()) {
+    counters_.bad_requests++;
+    return fail(msg::SAMPLE_BAD_REQUEST, s.message());
+  }
+  reply->status(msg::SAMPLE_OK);
+  counters_.samples_served += req.batch_size();
+}
+
+void ReplayService::Update(uint8_t kind, std::span<const uint64_t> keys, std::span<const float> values) {
+  std::lock_guard lock(mu_);
+  const uint64_t first = shard_.store().first_row(), end = shard_.store().end_row();
+  for (size_t i = 0; i < keys.size() && i < values.size(); ++i) {
+    if (keys[i] < first || keys[i] >= end || !(values[i] >= 0) || !std::isfinite(values[i])) continue;
+    if (kind == msg::UPDATE_PRIORITY) shard_.priorities().SetPriority(keys[i], values[i]);
+    else shard_.priorities().SetWeight(keys[i], values[i]);
+  }
+}
+
+Result<SnapshotWriteResult> ReplayService::Snapshot(uint64_t command_id) {
+  std::lock_guard one(snapshot_mu_);
+  if (options_.snapshot_dir.empty()) return Errorf("shard {}: replay.snapshot_dir is not set", shard_.id());
+  std::error_code ec;
+  std::filesystem::create_directories(options_.snapshot_dir, ec);
+  auto path = NextSnapshotPath(options_.snapshot_dir, shard_.id());
+  auto r = WriteSnapshot(mu_, shard_, limiter_, options_, command_id, path);
+  std::lock_guard lock(mu_);
+  if (!r.ok()) {
+    counters_.snapshot_failures++;
+    return r;
+  }
+  counters_.snapshots_written++;
+  counters_.last_snapshot_command = std::max(counters_.last_snapshot_command, command_id);
+  counters_.last_snapshot_s = r->seconds;
+  PruneSnapshots(options_.snapshot_dir, shard_.id(), options_.snapshot_keep);
+  return r;
+}
+
+ReplayService::View ReplayService::Stats(bool with_stored) const {
+  std::lock_guard lock(mu_);
+  View v{shard_.id(), shard_.store().transitions(), shard_.store().capacity(), shard_.counters(),
+         shard_.ledger().duplicates(), shard_.ledger().gaps(), shard_.ledger().actors(), {}, counters_};
+  if (with_stored) v.stored = shard_.StoredByActor();
+  return v;
+}
+
+}  // namespace coins

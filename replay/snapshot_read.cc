@@ -1,0 +1,178 @@
+// reading, checking and restoring snapshots (format in snapshot.h)
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <regex>
+
+#include "replay/snapshot.h"
+
+namespace coins {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+Status Read(const fs::path& path, SnapshotImage& img) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Errorf("snapshot {}: cannot open", path.string());
+  const std::string name = path.string();
+  char magic[8];
+  uint32_t version[2];
+  if (!in.read(magic, 8) || std::memcmp(magic, "COINSRPL", 8) != 0)
+    return Errorf("snapshot {}: not a coins replay snapshot (bad magic)", name);
+  if (!in.read(reinterpret_cast<char*>(version), 8)) return Errorf("snapshot {}: truncated header", name);
+  if (version[0] != kSnapshotFormat)
+    return Errorf("snapshot {}: format version {} (this build reads {})", name, version[0], kSnapshotFormat);
+  in.seekg(0, std::ios::end);
+  const uint64_t file_size = uint64_t(in.tellg());
+  in.seekg(16);
+  img.format = version[0];
+  uint64_t data_hash = 0;
+  std::vector<uint8_t> buf;
+  for (bool ended = false; !ended;) {
+    uint8_t h[24];
+    if (!in.read(reinterpret_cast<char*>(h), 24))
+      return Errorf("snapshot {}: truncated (no END section after {} sections)", name, img.sections.size());
+    std::string tag(reinterpret_cast<char*>(h), 4);
+    uint64_t length, hash;
+    std::memcpy(&length, h + 8, 8);
+    std::memcpy(&hash, h + 16, 8);
+    if (length > file_size) return Errorf("snapshot {}: truncated in section '{}' ({} bytes announced)", name, tag, length);
+    buf.resize(size_t(length));
+    if (!in.read(reinterpret_cast<char*>(buf.data()), std::streamsize(length)))
+      return Errorf("snapshot {}: truncated in section '{}'", name, tag);
+    img.sections.push_back({tag, length, true});
+    if (tag == "DATA") {
+      // checked once the chunk records are known
+      img.data = std::move(buf);
+      buf = {};
+      data_hash = hash;
+      continue;
+    }
+    if (HashBytes(buf.data(), buf.size()) != hash) {
+      img.sections.back().ok = false;
+      return Errorf("snapshot {}: section '{}' fails its checksum", name, tag);
+    }
+    if (tag == "END!") {
+      ended = true;
+    } else if (tag == "CHKD") {
+      if (length % sizeof(SnapshotChunk)) return Errorf("snapshot {}: section 'CHKD' has a partial record", name);
+      img.chunks.resize(size_t(length / sizeof(SnapshotChunk)));
+      std::memcpy(img.chunks.data(), buf.data(), size_t(length));
+    } else if (tag == "PRIO") {
+      img.priorities.resize(size_t(length / 4));
+      std::memcpy(img.priorities.data(), buf.data(), size_t(length / 4 * 4));
+    } else if (tag == "LEDG" || tag == "CONF" || tag == "META") {
+      auto j = nlohmann::json::parse(buf.begin(), buf.end(), nullptr, false);
+      if (j.is_discarded()) return Errorf("snapshot {}: section '{}' is not valid JSON", name, tag);
+      (tag == "LEDG" ? img.ledger : tag == "CONF" ? img.config : img.meta) = std::move(j);
+    }
+  }
+  for (const char* need : {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META"})
+    if (std::none_of(img.sections.begin(), img.sections.end(), [&](const auto& s) { return s.tag == need; }))
+      return Errorf("snapshot {}: section '{}' is missing", name, need);
+  // DATA: the chunk sizes must add up, and the per-chunk hash chain must match
+  uint64_t total = 0, hh = 0xcbf29ce484222325ULL, rows = 0;
+  for (const auto& c : img.chunks) {
+    if (c.bytes > img.data.size() - std::min<uint64_t>(total, img.data.size()))
+      return Errorf("snapshot {}: chunk records describe more bytes than section 'DATA' holds", name);
+    hh = HashBytes(img.data.data() + total, size_t(c.bytes), hh);
+    total += c.bytes;
+    rows += c.rows;
+  }
+  auto data = std::find_if(img.sections.begin(), img.sections.end(), [](const auto& s) { return s.tag == "DATA"; });
+  if (total != img.data.size() || hh != data_hash) {
+    data->ok = false;
+    return Errorf("snapshot {}: section 'DATA' fails its checksum", name);
+  }
+  if (img.priorities.size() != rows * 2)
+    return Errorf("snapshot {}: section 'PRIO' holds {} values for {} rows", name, img.priorities.size(), rows);
+  for (const char* key : {"layout_hash", "state_dim", "action_dim", "goal_dim", "shard_id"})
+    if (!img.meta.contains(key) || !img.meta[key].is_number_unsigned())
+      return Errorf("snapshot {}: section 'META' lacks '{}'", name, key);
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<SnapshotImage> ReadSnapshot(const fs::path& path) {
+  SnapshotImage img;
+  Status s = Read(path, img);
+  if (!s.ok()) return s;
+  return img;
+}
+
+Status InspectSnapshot(const fs::path& path, SnapshotImage* img) { return Read(path, *img); }
+
+Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter) {
+  const auto& m = img.meta;
+  ChunkStore& store = shard->mutable_store();
+  COINS_RETURN_IF_ERROR(store.Configure(m["layout_hash"].get<uint32_t>(), m["state_dim"].get<uint32_t>(),
+                                        m["action_dim"].get<uint32_t>(), m["goal_dim"].get<uint32_t>()));
+  // chunks in order; each one's rows get their saved priorities and weights
+  uint64_t offset = 0, row = 0;
+  for (const SnapshotChunk& c : img.chunks) {
+    ChunkInfo info{0, int64_t(c.bytes), uint32_t(c.rows), uint32_t(c.transitions), uint32_t(c.deltas),
+                   uint32_t(c.actor), uint32_t(c.env), c.seq};
+    info.incarnation = c.incarnation;
+    info.episode_base = c.episode_base;
+    info.continues = c.continues != 0;
+    COINS_RETURN_IF_ERROR(store.InsertRaw(info, img.data.data() + offset));
+    size_t last = store.chunks() - 1;
+    const ChunkInfo& held = store.chunk(last);
+    shard->priorities().OnInsert(held.row_base, store.flags(last), held.n_rows);
+    for (uint32_t r = 0; r < held.n_rows; ++r)
+      shard->priorities().SetRaw(held.row_base + r, img.priorities[2 * (row + r)], img.priorities[2 * (row + r) + 1]);
+    offset += c.bytes;
+    row += c.rows;
+  }
+  IngestLedger& ledger = shard->mutable_ledger();
+  for (const auto& a : img.ledger) {
+    ActorLedger l;
+    l.incarnation = a.value("incarnation", uint64_t(0));
+    l.next_seq = a.value("next_seq", uint64_t(0));
+    l.batches = a.value("batches", uint64_t(0));
+    l.transitions = a.value("transitions", uint64_t(0));
+    l.checksum = a.value("checksum", uint64_t(0));
+    l.incarnations = a.value("incarnations", uint64_t(1));
+    ledger.Restore(a.value("actor_id", uint32_t(0)), l);
+  }
+  ledger.RestoreTotals(m.value("duplicates", uint64_t(0)), m.value("gaps", uint64_t(0)));
+  shard->RestoreCounters({m.value("inserted_transitions", uint64_t(0)), m.value("inserted_batches", uint64_t(0)),
+                          m.value("rejected", uint64_t(0))});
+  limiter->Restore({m.value("rate_inserted", uint64_t(0)), m.value("rate_sampled", uint64_t(0))});
+  return Status::Ok();
+}
+
+std::vector<fs::path> ListSnapshots(const fs::path& dir, uint32_t shard_id) {
+  std::vector<std::pair<uint64_t, fs::path>> found;
+  const std::regex re("shard-" + std::to_string(shard_id) + "-([0-9]+)\\.snap");
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    std::smatch mm;
+    std::string f = e.path().filename().string();
+    if (std::regex_match(f, mm, re)) found.emplace_back(std::stoull(mm[1].str()), e.path());
+  }
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<fs::path> out;
+  for (auto& f : found) out.push_back(f.second);
+  return out;
+}
+
+fs::path NextSnapshotPath(const fs::path& dir, uint32_t shard_id) {
+  uint64_t next = 0;
+  auto list = ListSnapshots(dir, shard_id);
+  if (!list.empty()) {
+    std::string f = list.front().filename().string();
+    next = std::stoull(f.substr(f.rfind('-') + 1)) + 1;
+  }
+  return dir / fmt::format("shard-{}-{:08d}.snap", shard_id, next);
+}
+
+void PruneSnapshots(const fs::path& dir, uint32_t shard_id, int64_t keep) {
+  auto list = ListSnapshots(dir, shard_id);
+  std::error_code ec;
+  for (size_t i = size_t(keep); i < list.size(); ++i) fs::remove(list[i], ec);
+}
+
+}  // namespace coins

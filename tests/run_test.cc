@@ -1,0 +1,83 @@
+// System tests of `coins run` and `coins monitor`: the whole set of processes on loopback.
+#include <signal.h>
+
+#include <gtest/gtest.h>
+
+#include <regex>
+
+#include "tests/process_harness.h"
+
+namespace coins {
+namespace {
+
+using namespace coins::testing;
+
+std::string RunFlags(const std::filesystem::path& dir, int domain) {
+  return " --dir " + dir.string() + " --set dds.domain=" + std::to_string(domain) +
+         " --set replay.capacity_mb=64 --set actor.status_period_s=0.2 --set replay.status_period_s=0.2";
+}
+
+TEST(Run, ReachesItsStepBudgetAndStopsCleanly) {
+  auto dir = TempDir("run-budget");
+  auto r = RunCommand(Bin("coins") + " run --steps 60000 --actors 2 --shards 2" + RunFlags(dir / "run", TestDomain(3)));
+  ASSERT_EQ(r.code, 0) << r.output;
+  // the last progress line counts every step, and both shards hold them all
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(steps (\d+\.\d+)k)"))) << r.output;
+  std::string last = r.output.substr(r.output.rfind("steps "));
+  EXPECT_NE(last.find("steps 60.0k"), std::string::npos) << r.output;
+  EXPECT_NE(last.find("replay-0 30.0k"), std::string::npos) << r.output;
+  EXPECT_NE(last.find("replay-1 30.0k"), std::string::npos) << r.output;
+  // every process wrote a log and the effective config was saved
+  for (const char* name : {"actor-0", "actor-1", "replay-0", "replay-1", "learner", "orchestrator"})
+    EXPECT_TRUE(std::filesystem::exists(dir / "run" / "logs" / (std::string(name) + ".log"))) << name;
+  EXPECT_TRUE(std::filesystem::exists(dir / "run" / "config.yaml"));
+}
+
+TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
+  auto dir = TempDir("run-death");
+  std::string cmd = Bin("coins") + " run --steps 0 --actors 1 --shards 1" + RunFlags(dir / "run", TestDomain(4));
+  // kill the shard once it is up; coins run must notice, say which and how, and exit non-zero
+  // ([c] keeps the patterns from matching the shell that runs pgrep itself)
+  std::thread killer([&] {
+    WaitUntil([&] { return RunCommand("pgrep -f '[c]oins-replay.*" + (dir / "run").string() + "'").code == 0; },
+              std::chrono::seconds(20));
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    RunCommand("pkill -9 -f '[c]oins-replay.*" + (dir / "run").string() + "'");
+  });
+  auto r = RunCommand(cmd);
+  killer.join();
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find("replay-0 (pid"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("was killed by signal 9 (Killed)"), std::string::npos) << r.output;
+  // nothing of the run is left behind
+  EXPECT_NE(RunCommand("pgrep -f '[c]oins-actor.*" + (dir / "run").string() + "'").code, 0);
+}
+
+TEST(Run, MonitorSeesEveryProcess) {
+  auto dir = TempDir("run-monitor");
+  int domain = TestDomain(5);
+  std::string cmd = Bin("coins") + " run --steps 0 --actors 2 --shards 1 --quiet" + RunFlags(dir / "run", domain);
+  std::vector<ChildProcess> run;
+  auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + cmd}, (dir / "run.log").string());
+  ASSERT_TRUE(child.ok());
+  run.push_back(std::move(*child));
+  auto r = RunCommand(Bin("coins") + " monitor --json --seconds 4 --domain " + std::to_string(domain));
+  StopAll(run, std::chrono::seconds(15));
+  ASSERT_EQ(r.code, 0) << r.output;
+  auto j = nlohmann::json::parse(r.output.substr(r.output.find('{')), nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.output;
+  std::set<std::string> names;
+  for (const auto& p : j["processes"]) names.insert(p["name"].get<std::string>());
+  for (const char* name : {"actor-0", "actor-1", "replay-0", "learner", "orchestrator"}) EXPECT_TRUE(names.count(name)) << name;
+  ASSERT_EQ(j["actors"].size(), 2u);
+  EXPECT_GT(j["actors"][0]["steps"].get<uint64_t>(), 0u);
+  ASSERT_EQ(j["shards"].size(), 1u);
+  EXPECT_GT(j["shards"][0]["inserted_transitions"].get<uint64_t>(), 0u);
+  EXPECT_EQ(j["chain"]["phase"], "collecting");
+  // coins run stopped on SIGTERM like on Ctrl-C: exit 0
+  EXPECT_TRUE(run[0].succeeded()) << run[0].Describe();
+}
+
+}  // namespace
+}  // namespace coins

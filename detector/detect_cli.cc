@@ -1,0 +1,103 @@
+#include "detector/detect_cli.h"
+
+#include <cstdio>
+#include <memory>
+
+#include "detector/detect_run.h"
+
+namespace coins::detector {
+
+namespace {
+
+struct CliState {
+  DetectRequest req;
+  bool json = false;
+  bool paper_sizes = false;
+  bool no_gate = false;
+  std::string mask_rule = "relative";
+  std::vector<int> hidden;
+  double eps_si = -1.0;
+  double close = -1.0;
+};
+
+void Fail(const Status& st) {
+  std::fprintf(stderr, "error: %s\n", st.message().c_str());
+  throw CLI::RuntimeError(1);
+}
+
+void Run(CliState& c) {
+  // options: env defaults, then the flags
+  DetectorOptions o = DefaultDetectorOptions(c.req.env, false);
+  o.passive_steps = c.req.options.passive_steps;
+  o.active_steps = c.req.options.active_steps;
+  o.seed = c.req.seed;
+  o.eps_act = c.req.options.eps_act;
+  o.eps_pas = c.req.options.eps_pas;
+  o.lambda = c.req.options.lambda;
+  o.lr = c.req.options.lr;
+  if (c.eps_si >= 0.0) o.eps_si = float(c.eps_si);
+  if (c.close >= 0.0) o.close_distance = float(c.close);
+  if (c.no_gate) o.proximity_gate = false;
+  if (!c.hidden.empty()) o.passive_hidden = o.active_hidden = c.hidden;
+  if (c.mask_rule == "absolute") o.mask_rule = MaskRule::kAbsolute;
+  c.req.options = o;
+  if (c.paper_sizes) {
+    // one target at a time needs its own sizes; applied in RunDetect order below
+    for (const auto& t : c.req.targets) {
+      DetectorOptions p = DefaultDetectorOptions(c.req.env, true, c.req.source, t);
+      c.req.options.passive_hidden = p.passive_hidden;
+      c.req.options.active_hidden = p.active_hidden;
+    }
+  }
+  Result<nlohmann::json> r = RunDetect(c.req);
+  if (!r.ok()) Fail(r.status());
+  if (c.json) {
+    std::printf("%s\n", r->dump().c_str());
+  } else {
+    std::printf("%s", FormatDetectTable(r.value()).c_str());
+  }
+}
+
+}  // namespace
+
+void AddDetectCommand(CLI::App& app) {
+  auto c = std::make_shared<CliState>();
+  CLI::App* cmd = app.add_subcommand(
+      "detect", "train interaction detectors (passive/active Granger models) for one source");
+  cmd->add_option("--env", c->req.env, "environment name (see `env list`)")->required();
+  cmd->add_option("--source", c->req.source, "source factor, e.g. Action, Paddle, Gripper")->required();
+  cmd->add_option("--policy", c->req.policy,
+                  "data policy: random, goals (scripted paddle/gripper to random targets) or a "
+                  "file with one action per line")
+      ->capture_default_str();
+  cmd->add_option("--steps", c->req.steps, "environment steps of data")->required()->check(CLI::PositiveNumber);
+  cmd->add_option("--seed", c->req.seed, "seed of data and models")->capture_default_str();
+  cmd->add_option("--targets", c->req.targets, "targets (default: every uncontrolled factor)")->delimiter(',');
+  cmd->add_flag("--json", c->json, "print one JSON object");
+  cmd->add_flag("--eval", c->req.eval, "false positives/negatives against the simulator's labels on fresh data");
+  cmd->add_option("--eval-steps", c->req.eval_steps, "steps of evaluation data (default: --steps)")->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--granger", c->req.granger, "also run the linear Granger F-test on the same data");
+  cmd->add_option("--granger-window", c->req.granger_window, "history window w of the linear test")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--passive-steps", c->req.options.passive_steps, "Adam steps of the passive model")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--active-steps", c->req.options.active_steps, "Adam steps of the active model")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128")
+      ->delimiter(',')->check(CLI::PositiveNumber);
+  cmd->add_flag("--paper-sizes", c->paper_sizes, "the paper's network sizes (needs one --targets entry)");
+  cmd->add_option("--lr", c->req.options.lr, "Adam learning rate")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--lambda", c->req.options.lambda, "active up-weight of passive-error states")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--eps-act", c->req.options.eps_act, "active log-likelihood threshold")->capture_default_str();
+  cmd->add_option("--eps-pas", c->req.options.eps_pas, "passive log-likelihood threshold")->capture_default_str();
+  cmd->add_option("--eps-si", c->eps_si, "pass threshold on Sc_I (default 3)");
+  cmd->add_option("--close", c->close, "proximity L1 distance (default: 7 Breakout, 0.13 pushing; 0 turns it off)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("--no-proximity-gate", c->no_gate, "do not require proximity in the interaction test");
+  cmd->add_option("--mask-rule", c->mask_rule, "relative or absolute (eq. 10 literally)")
+      ->check(CLI::IsMember({"relative", "absolute"}))->capture_default_str();
+  cmd->callback([c] { Run(*c); });
+}
+
+}  // namespace coins::detector

@@ -1,0 +1,205 @@
+#include "detector/detect_run.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "actors/envs/env.h"
+#include "detector/granger.h"
+#include "detector/interaction.h"
+#include "detector/transitions.h"
+
+namespace coins::detector {
+
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// a double that JSON can hold (NaN and inf become null)
+nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+}  // namespace
+
+Status DetectRequest::Validate() const {
+  if (env.empty()) return Errorf("--env is required");
+  if (source.empty()) return Errorf("--source is required");
+  if (steps <= 0) return Errorf("--steps must be positive, got {}", steps);
+  if (eval_steps < 0) return Errorf("--eval-steps must be >= 0, got {}", eval_steps);
+  if (granger_window < 1) return Errorf("--granger-window must be >= 1, got {}", granger_window);
+  return options.Validate();
+}
+
+Result<nlohmann::json> RunDetect(const DetectRequest& req) {
+  COINS_RETURN_IF_ERROR(req.Validate());
+  Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv(req.env);
+  if (!env.ok()) return env.status().WithContext("--env");
+  const envs::EnvSpec& spec = (*env)->spec();
+  if (req.source != "Action" && spec.factor_index(req.source) < 0) {
+    std::string names;
+    for (const auto& f : spec.factors) names += (names.empty() ? "" : ", ") + f.name;
+    return Errorf("--source: env '{}' has no factor '{}' (factors: {})", req.env, req.source, names);
+  }
+
+  // the targets: every uncontrolled factor unless given
+  std::vector<std::string> targets = req.targets;
+  if (targets.empty()) {
+    for (const auto& f : spec.factors) {
+      if (f.name == "Action" || f.name == req.source || f.name == "Done" || f.name == "Reward") continue;
+      targets.push_back(f.name);
+    }
+  }
+  for (const std::string& t : targets) {
+    if (spec.factor_index(t) < 0) return Errorf("--targets: env '{}' has no factor '{}'", req.env, t);
+    if (t == req.source) return Errorf("--targets: '{}' is the source", t);
+  }
+
+  // collect the data
+  auto t0 = std::chrono::steady_clock::now();
+  CollectOptions co;
+  co.policy = req.policy;
+  co.steps = req.steps;
+  co.seed = req.seed;
+  Result<TransitionSet> data = CollectTransitions(**env, co);
+  if (!data.ok()) return data.status();
+  nlohmann::json report;
+  report["env"] = req.env;
+  report["source"] = req.source;
+  report["policy"] = req.policy;
+  report["steps"] = req.steps;
+  report["seed"] = req.seed;
+  report["collect_seconds"] = Seconds(t0);
+  report["eps_si"] = req.options.eps_si;
+  report["mask_rule"] = MaskRuleName(req.options.mask_rule);
+
+  // a fresh evaluation set from another seed
+  TransitionSet eval_data;
+  if (req.eval) {
+    co.steps = req.eval_steps > 0 ? req.eval_steps : req.steps;
+    co.seed = req.seed + 1000003;
+    Result<TransitionSet> ed = CollectTransitions(**env, co);
+    if (!ed.ok()) return ed.status();
+    eval_data = std::move(ed.value());
+    report["eval_states"] = eval_data.size();
+  }
+
+  // train and score every target
+  report["targets"] = nlohmann::json::array();
+  for (const std::string& target : targets) {
+    DetectorOptions opts = req.options;
+    auto t1 = std::chrono::steady_clock::now();
+    Result<PairDetector> det = PairDetector::Train(spec, data.value(), req.source, target, opts);
+    if (!det.ok()) return det.status();
+    const double train_s = Seconds(t1);
+    auto t2 = std::chrono::steady_clock::now();
+    PairScores s = det->Score(data.value());
+    const double score_s = Seconds(t2);
+    nlohmann::json j;
+    j["target"] = target;
+    j["score"] = Num(s.score);
+    j["mg_score"] = Num(s.mg_score);
+    j["mean_ll_act"] = Num(s.mean_ll_act);
+    j["mean_ll_pas"] = Num(s.mean_ll_pas);
+    j["interactions"] = s.interactions;
+    j["samples"] = s.samples;
+    j["features"] = s.feature_names;
+    j["mask"] = s.mask;
+    j["mask_diff"] = s.mask_diff;
+    j["goal_kind"] = GoalKindName(s.goals.kind);
+    if (s.goals.kind == GoalSet::Kind::kContinuous) {
+      j["goal_set"] = {{"low", s.goals.low}, {"high", s.goals.high}};
+    } else {
+      j["goal_set"] = s.goals.goals;
+      j["goal_counts"] = s.goals.counts;
+    }
+    j["goal_unique_raw"] = s.goals.raw_unique;
+    j["pass"] = s.pass;
+    j["train_seconds"] = train_s;
+    const PairDetector::TrainStats& ts = det->train_stats();
+    j["train"] = {{"samples", ts.samples}, {"passive_pool", ts.passive_pool},
+                  {"upweighted", ts.upweighted}, {"passive_loss", ts.passive_loss},
+                  {"active_loss", ts.active_loss}};
+    j["score_seconds"] = score_s;
+    if (!s.note.empty()) j["note"] = s.note;
+    if (req.eval) {
+      auto t3 = std::chrono::steady_clock::now();
+      PairEvaluation e = det->Evaluate(spec, eval_data);
+      j["eval_seconds"] = Seconds(t3);
+      j["fp_per_state"] = e.has_truth ? Num(e.fp_per_state) : nlohmann::json();
+      j["fn_per_interaction"] = e.has_truth ? Num(e.fn_per_interaction) : nlohmann::json();
+      j["true_interactions"] = e.true_interactions;
+      j["detected"] = e.detected;
+      j["false_positives"] = e.false_positives;
+      j["false_negatives"] = e.false_negatives;
+      j["fn_reasons"] = {{"active_low", e.fn_act_low}, {"passive_high", e.fn_pas_high},
+                         {"far", e.fn_far}, {"counterfactual", e.fn_counterfactual}};
+    }
+    report["targets"].push_back(std::move(j));
+  }
+
+  // the linear Granger test on the same data
+  if (req.granger) {
+    GrangerOptions go;
+    go.window = req.granger_window;
+    go.seed = req.seed;
+    auto t4 = std::chrono::steady_clock::now();
+    Result<std::vector<GrangerResult>> g = LinearGrangerTest(spec, data.value(), req.source, targets, go);
+    if (!g.ok()) return g.status();
+    report["granger_seconds"] = Seconds(t4);
+    report["granger"] = nlohmann::json::array();
+    for (const GrangerResult& r : g.value()) {
+      report["granger"].push_back({{"target", r.target}, {"f_stat", Num(r.f_stat)},
+                                   {"p_value", Num(r.p_value)}, {"df1", r.df1}, {"df2", r.df2},
+                                   {"feature", r.feature}, {"causes", r.causes},
+                                   {"samples", r.samples}});
+    }
+  }
+  return report;
+}
+
+std::string FormatDetectTable(const nlohmann::json& r) {
+  std::string out = fmt::format("env {}  source {}  policy {}  steps {}  (collected in {:.1f} s)\n",
+                                r["env"].get<std::string>(), r["source"].get<std::string>(),
+                                r["policy"].get<std::string>(), r["steps"].get<int64_t>(),
+                                r["collect_seconds"].get<double>());
+  const bool eval = r.contains("eval_states");
+  out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n", "target", "Sc_I",
+                     "MG", "N_int", "pass", "mask", "goal kind", "goal set");
+  for (const auto& t : r["targets"]) {
+    std::string mask;
+    const auto& names = t["features"];
+    for (size_t k = 0; k < t["mask"].size(); ++k) {
+      if (t["mask"][k].get<int>()) mask += (mask.empty() ? "" : ",") + names[k].get<std::string>();
+    }
+    if (mask.empty()) mask = "-";
+    auto num = [](const nlohmann::json& v) { return v.is_null() ? std::string("nan") : fmt::format("{:.3f}", v.get<double>()); };
+    out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n",
+                       t["target"].get<std::string>(), num(t["score"]), num(t["mg_score"]),
+                       t["interactions"].get<int64_t>(), t["pass"].get<bool>() ? "PASS" : "fail",
+                       mask, t["goal_kind"].get<std::string>(), t["goal_set"].dump());
+    out += fmt::format("{:<10} train {:.1f} s, score {:.2f} s\n", "", t["train_seconds"].get<double>(),
+                       t["score_seconds"].get<double>());
+    if (eval) {
+      out += fmt::format("{:<10} eval: fp/state {}  fn/interaction {}  ({} labelled, {} detected; misses: {})\n",
+                         "", t["fp_per_state"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fp_per_state"].get<double>()),
+                         t["fn_per_interaction"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fn_per_interaction"].get<double>()),
+                         t["true_interactions"].get<int64_t>(), t["detected"].get<int64_t>(),
+                         t["fn_reasons"].dump());
+    }
+  }
+  if (r.contains("granger")) {
+    out += "linear Granger test (F-test, alpha 1e-3):\n";
+    for (const auto& g : r["granger"]) {
+      out += fmt::format("{:<10} F {:>12.4g}  p {:>10.3g}  causes {}  (feature {}, n {})\n",
+                         g["target"].get<std::string>(), g["f_stat"].is_null() ? NAN : g["f_stat"].get<double>(),
+                         g["p_value"].is_null() ? NAN : g["p_value"].get<double>(),
+                         g["causes"].get<bool>() ? "yes" : "no", g["feature"].get<std::string>(),
+                         g["samples"].get<int64_t>());
+    }
+  }
+  return out;
+}
+
+}  // namespace coins::detector

@@ -1,0 +1,101 @@
+// PairDetector: the interaction detector of one (source a, target b) pair (paper sections
+// 3.2-3.4, appendix B).
+//
+// Train: fits the pair layout, trains the passive model m_pas(s_b) on samples where a and b are
+// not close (all samples when the pair has no proximity), scores every sample with it, then
+// trains the active model m_act(s_a, s_b) drawing samples in proportion to
+// w = lambda + 1 when ll_pas < 0 and close, else 1.
+// Detect: per-sample log-likelihoods and the interaction test (eq. 8)
+//   h = ll_act > eps_act  and  ll_pas < eps_pas  [and close, when proximity_gate].
+// Score: on a data set, the MG score (eq. 7, mean ll_act - mean ll_pas), the interaction score
+// Sc_I (eq. 9, mean of ll_act - ll_pas over detected interactions; 0 with fewer than
+// min_interactions), the control mask (eq. 10) and the goal set; pass = Sc_I > eps_si.
+// Multi-instance targets share one model pair over instances, so a class is scored as one
+// target; a transition interacts when any of its instances does.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "actors/envs/env.h"
+#include "common/status.h"
+#include "detector/gaussian_model.h"
+#include "detector/goal_set.h"
+#include "detector/options.h"
+#include "detector/pair_data.h"
+#include "detector/transitions.h"
+
+namespace coins::detector {
+
+struct PairScores {
+  std::string source, target;
+  int64_t transitions = 0, samples = 0;
+  double score = 0.0;       // Sc_I (eq. 9)
+  double mg_score = 0.0;    // eq. 7
+  double mean_ll_act = 0.0, mean_ll_pas = 0.0;
+  int64_t interactions = 0; // N_int: detected (sample-level)
+  bool pass = false;        // score > eps_si
+  std::vector<int> mask;    // eta_b, one per target feature
+  std::vector<float> mask_diff;  // d_k of eq. 10 (normalised units)
+  std::vector<std::string> feature_names;
+  GoalSet goals;
+  std::string note;         // why the pair was not trained, when it was not
+};
+
+struct PairEvaluation {
+  bool has_truth = false;   // the env labels source->target
+  int64_t states = 0, true_interactions = 0, detected = 0;
+  int64_t false_positives = 0, false_negatives = 0;
+  double fp_per_state = 0.0, fn_per_interaction = 0.0;
+  // why labelled interactions were missed (a miss can have several reasons)
+  int64_t fn_act_low = 0, fn_pas_high = 0, fn_far = 0, fn_counterfactual = 0;
+};
+
+class PairDetector {
+ public:
+  struct Detection {
+    PairSamples samples;
+    Eigen::VectorXf ll_act, ll_pas;   // per sample
+    std::vector<uint8_t> h;           // per sample
+    std::vector<uint8_t> why;         // per sample: the failed conditions (Why* bits)
+  };
+  enum : uint8_t { kWhyActLow = 1, kWhyPasHigh = 2, kWhyFar = 4, kWhyCounterfactual = 8 };
+
+  // errors come from FitPairLayout and DetectorOptions::Validate
+  static Result<PairDetector> Train(const envs::EnvSpec& spec, const TransitionSet& data,
+                                    const std::string& source, const std::string& target,
+                                    const DetectorOptions& options);
+
+  const PairLayout& layout() const { return layout_; }
+  const DetectorOptions& options() const { return options_; }
+  // false when the target never changes in the training data (nothing to model)
+  bool trained() const { return layout_.output_dim() > 0; }
+
+  Detection Detect(const TransitionSet& data, bool all_instances);
+  PairScores Score(const TransitionSet& data);
+  // detections per transition against the env's labels (all instances of a class)
+  PairEvaluation Evaluate(const envs::EnvSpec& spec, const TransitionSet& data);
+  // one flag per transition: some sample of it is an interaction (what the learner labels)
+  std::vector<uint8_t> TransitionFlags(const TransitionSet& data);
+
+  // what training saw
+  struct TrainStats {
+    int64_t samples = 0, passive_pool = 0, upweighted = 0;
+    float passive_loss = 0.0f, active_loss = 0.0f;
+  };
+  const TrainStats& train_stats() const { return stats_; }
+
+  GaussianModel& passive() { return passive_; }
+  GaussianModel& active() { return active_; }
+
+ private:
+  PairLayout layout_;
+  DetectorOptions options_;
+  GaussianModel passive_, active_;
+  TrainStats stats_;
+};
+
+}  // namespace coins::detector

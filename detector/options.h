@@ -1,0 +1,71 @@
+// DetectorOptions: every knob of the interaction detector, with the defaults of
+// shared/reference/coins-method.md where it gives one (and the reason where it does not).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+
+namespace coins::detector {
+
+// how eq. 10's per-feature mean deviation d_k (normalised units, [-1, 1] per feature bound)
+// becomes the control mask
+enum class MaskRule {
+  kRelative,  // eta_k = d_k > eps_eta * max_j d_j (default; see detector/README.md)
+  kAbsolute,  // eta_k = d_k > eps_eta, the literal eq. 10
+};
+const char* MaskRuleName(MaskRule r);
+
+struct DetectorOptions {
+  // ---- models: conditional Gaussians over the scaled change of the target ----------------
+  std::vector<int> passive_hidden = {128, 128};  // paper: 256-256 .. 512x3 (see --paper-sizes)
+  std::vector<int> active_hidden = {128, 128};
+  float lr = 1e-3f;             // paper 1e-4 with far longer training
+  int passive_steps = 2000;     // Adam steps per model
+  int passive_hard_steps = 2000;  // then steps up-sampling the passive model's own misses
+  int active_steps = 2000;      // after the warm start from the passive model
+  int batch = 256;
+  float clip_norm = 10.0f;      // global gradient-norm clip
+  float min_std = 0.01f;        // the paper's minimum std, in scaled-change units
+  bool warm_start = true;       // the active model starts as the trained passive model
+  bool source_action = true;    // a non-action source also sees the primitive action
+  float delta_quantile = 0.99f; // change scale per feature: this quantile of non-zero |change|
+
+  // ---- data balancing (appendix B) ---------------------------------------------------------
+  float lambda = 100.0f;        // active up-weight of close transitions with passive error
+  float close_distance = 7.0f;  // L1 distance of positions (env units); <= 0: no proximity
+  // when true, a pair without positions (source Action) up-weights nothing: w needs "close"
+  bool upweight_needs_proximity = true;
+  bool proximity_gate = true;   // h_ab also requires proximity (when the pair has positions)
+  int static_instances_per_step = 4;  // multi-instance targets: unchanged instances sampled
+
+  // ---- the interaction test and scores (eqs. 7-9) -----------------------------------------
+  float eps_act = 2.0f;
+  float eps_pas = 0.0f;
+  float eps_si = 3.0f;          // paper: 3 to 5 (5 in its runs; our scales differ)
+  int min_interactions = 5;
+  // counterfactual check: h also needs ll_act(s_a, s_b) - mean_k ll_act(s_a~k, s_b) > eps_cf,
+  // with s_a~k the source of other transitions (0 draws turns the check off)
+  int counterfactual_draws = 3;
+  float eps_cf = 2.0f;     // fewer detected interactions: Sc_I = 0 (no evidence)
+
+  // ---- mask and goal set (eq. 10, section 3.4.1) --------------------------------------------
+  float eps_eta = 0.1f;
+  MaskRule mask_rule = MaskRule::kRelative;
+  float goal_dedup = 0.1f;      // L1 in normalised units below which two goals are one
+  int n_disc = 10;              // fewer unique goals: a discrete goal space
+  float goal_min_fraction = 0.02f;  // discrete goals seen in fewer interactions are dropped
+
+  uint64_t seed = 1;
+  Status Validate() const;
+};
+
+// defaults for an env and pair: the proximity distance of the env (7 px Breakout, 0.13 m
+// pushing) and, when paper_sizes, the paper's network sizes for the named pairs
+DetectorOptions DefaultDetectorOptions(const std::string& env_name, bool paper_sizes = false,
+                                       const std::string& source = "",
+                                       const std::string& target = "");
+
+}  // namespace coins::detector

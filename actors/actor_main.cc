@@ -110,8 +110,11 @@ int ActorMain(int argc, char** argv) {
   bool acked = sink.Flush(std::chrono::milliseconds(static_cast<int64_t>(options.flush_timeout_s * 1000)));
   if (!acked) spdlog::warn("not every batch was acknowledged within {} s", options.flush_timeout_s);
   fill_stats((*actor)->counters());
+  // a short run can end before anyone watching (coins run, monitor) has discovered this actor:
+  // give them a moment to match so the final stats are seen
+  for (int i = 0; i < 100 && stats_writer->matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   stats_writer->Write(stats);
-  stats_writer->WaitAcked(std::chrono::milliseconds(500));
+  stats_writer->WaitAcked(std::chrono::seconds(2));
   if (!stats_out.empty()) WriteStatsJson(stats_out, stats);
   spdlog::info("done: {} steps, {} episodes, {} batches, {} transitions published", stats.steps(), stats.episodes(),
                stats.batches(), stats.transitions_published());

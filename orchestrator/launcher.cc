@@ -166,12 +166,12 @@ int RunLocal(const RunFlags& flags) {
       drain_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     }
     if (actors_done) {
-      uint64_t published = 0, stored = 0;
-      for (const auto& [id, a] : view.actors) published += a.sample.transitions_published();
+      // every actor that finished published exactly its share of run.steps
+      uint64_t expected = uint64_t(c.run.actors) * ((c.run.steps + c.run.actors - 1) / c.run.actors);
+      if (c.actor.steps) expected = uint64_t(c.run.actors) * c.actor.steps;
+      uint64_t stored = 0;
       for (const auto& [id, s] : view.shards) stored += s.sample.inserted_transitions();
-      if ((published > 0 && stored >= published && view.actors.size() == size_t(c.run.actors)) ||
-          std::chrono::steady_clock::now() > drain_deadline)
-        break;
+      if (stored >= expected || std::chrono::steady_clock::now() > drain_deadline) break;
     }
     auto now = std::chrono::steady_clock::now();
     if (now >= next_line && !flags.quiet) {

@@ -49,66 +49,36 @@ DataReaderQos TransitionReaderQos(const DdsOptions& options) {
   return q;
 }
 
-DataWriterQos StatusWriterQos() {
-  DataWriterQos q = DATAWRITER_QOS_DEFAULT;
+namespace {
+
+// reliable, keep-last `depth`, no data-sharing; QoS is DataWriterQos or DataReaderQos
+template <typename QoS>
+QoS KeepLast(QoS q, int32_t depth, DurabilityQosPolicyKind durability) {
   q.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = VOLATILE_DURABILITY_QOS;
+  q.durability().kind = durability;
   q.history().kind = KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 4;
+  q.history().depth = depth;
   q.data_sharing().off();
   return q;
 }
 
-DataReaderQos StatusReaderQos() {
-  DataReaderQos q = DATAREADER_QOS_DEFAULT;
-  q.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = VOLATILE_DURABILITY_QOS;
-  q.history().kind = KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 4;
-  q.data_sharing().off();
+// writers of large, rare samples publish asynchronously (a blob may exceed one datagram)
+DataWriterQos Async(DataWriterQos q) {
+  q.publish_mode().kind = ASYNCHRONOUS_PUBLISH_MODE;
   return q;
 }
+
+}  // namespace
+
+DataWriterQos StatusWriterQos() { return KeepLast(DATAWRITER_QOS_DEFAULT, 4, VOLATILE_DURABILITY_QOS); }
+DataReaderQos StatusReaderQos() { return KeepLast(DATAREADER_QOS_DEFAULT, 4, VOLATILE_DURABILITY_QOS); }
 
 DataWriterQos LatchedWriterQos() {
-  DataWriterQos q = DATAWRITER_QOS_DEFAULT;
-  q.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = TRANSIENT_LOCAL_DURABILITY_QOS;
-  q.history().kind = KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 1;
-  q.publish_mode().kind = ASYNCHRONOUS_PUBLISH_MODE;  // blobs may exceed one datagram
-  q.data_sharing().off();
-  return q;
+  return Async(KeepLast(DATAWRITER_QOS_DEFAULT, 1, TRANSIENT_LOCAL_DURABILITY_QOS));
 }
+DataReaderQos LatchedReaderQos() { return KeepLast(DATAREADER_QOS_DEFAULT, 1, TRANSIENT_LOCAL_DURABILITY_QOS); }
 
-DataReaderQos LatchedReaderQos() {
-  DataReaderQos q = DATAREADER_QOS_DEFAULT;
-  q.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = TRANSIENT_LOCAL_DURABILITY_QOS;
-  q.history().kind = KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 1;
-  q.data_sharing().off();
-  return q;
-}
-
-DataWriterQos CommandWriterQos() {
-  DataWriterQos q = DATAWRITER_QOS_DEFAULT;
-  q.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = VOLATILE_DURABILITY_QOS;
-  q.history().kind = KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 64;
-  q.publish_mode().kind = ASYNCHRONOUS_PUBLISH_MODE;
-  q.data_sharing().off();
-  return q;
-}
-
-DataReaderQos CommandReaderQos() {
-  DataReaderQos q = DATAREADER_QOS_DEFAULT;
-  q.reliability().kind = RELIABLE_RELIABILITY_QOS;
-  q.durability().kind = VOLATILE_DURABILITY_QOS;
-  q.history().kind = KEEP_LAST_HISTORY_QOS;
-  q.history().depth = 64;
-  q.data_sharing().off();
-  return q;
-}
+DataWriterQos CommandWriterQos() { return Async(KeepLast(DATAWRITER_QOS_DEFAULT, 64, VOLATILE_DURABILITY_QOS)); }
+DataReaderQos CommandReaderQos() { return KeepLast(DATAREADER_QOS_DEFAULT, 64, VOLATILE_DURABILITY_QOS); }
 
 }  // namespace coins::dds

@@ -184,6 +184,9 @@ int RunLocal(const RunFlags& flags) {
   if (!failure.empty()) std::cerr << "coins run: " << failure << "; stopping the other processes\n";
   else if (StopRequested()) std::cout << "coins run: stopping (interrupted)\n";
   StopAll(children, std::chrono::seconds(10));
+  // the final reports of the last processes may still be on their way
+  auto reported = [&] { return (*collector)->Snapshot().actors.size() >= size_t(c.run.actors); };
+  for (int i = 0; i < 40 && !reported(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   StatusView view = (*collector)->Snapshot();
   std::cout << ProgressLine(view, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                             c.run.actors)

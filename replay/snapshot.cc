@@ -53,8 +53,9 @@ class Out {
     hash_ = HashBytes(p, n, hash_);
     Write(p, n);
   }
-  // DATA: the hash chains over each chunk, so a reader can recompute it from chunk sizes
-  void Hash(const void* p, size_t n) { hash_ = HashBytes(p, n, hash_); }
+  // DATA: the section hash is the hash of the per-chunk hashes, so a reader can recompute it
+  // from chunk sizes (seed-chained HashBytes calls can lose a difference confined to the top bit)
+  void SetHash(uint64_t h) { hash_ = h; }
   void End() {
     uint8_t h[kSectionHeader] = {};
     std::memcpy(h, tag_, 4);
@@ -158,6 +159,7 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
   // chunk bytes in slices, each copied under the lock and written outside it
   std::vector<SnapshotChunk> chunks;
   std::vector<float> prio;
+  std::vector<uint64_t> chunk_hashes;
   std::vector<uint8_t> slice;
   slice.reserve(size_t(kSliceBytes) + (size_t(1) << 20));
   uint64_t transitions = 0;
@@ -172,7 +174,7 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
         const ChunkInfo& c = store.chunk(size_t(i));
         const uint8_t* b = store.bytes(size_t(i));
         slice.insert(slice.end(), b, b + c.bytes);
-        out.Hash(b, size_t(c.bytes));
+        chunk_hashes.push_back(HashBytes(b, size_t(c.bytes)));
         chunks.push_back({uint64_t(c.bytes), c.n_rows, c.transitions, c.n_deltas, c.actor_id, c.env_id, c.seq,
                           c.incarnation, c.episode_base, c.continues ? 1u : 0u});
         transitions += c.transitions;
@@ -184,6 +186,7 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
     }
     out.Write(slice.data(), slice.size());
   }
+  out.SetHash(HashBytes(chunk_hashes.data(), chunk_hashes.size() * 8));
   out.End();
   out.Begin("CHKD");
   out.Payload(chunks.data(), chunks.size() * sizeof(SnapshotChunk));

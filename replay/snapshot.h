@@ -2,7 +2,8 @@
 // a reader that validates everything before anything is restored.
 //
 // File: "COINSRPL", u32 format version, u32 reserved, then sections, each a 24-byte header
-// (4-byte tag, u32 reserved, u64 payload length, u64 HashBytes of the payload) and its payload:
+// (4-byte tag, u32 reserved (0), u64 payload length, u64 HashBytes of the payload; for DATA,
+// HashBytes of the array of per-chunk HashBytes) and its payload:
 //   DATA  chunk bytes, concatenated (the arena's compact delta chunks, as stored)
 //   CHKD  one 80-byte record per chunk (10 x u64: bytes, rows, transitions, deltas, actor,
 //         env, seq, incarnation, episode_base, continues)

@@ -3,6 +3,7 @@
 #include <cstring>
 #include <fstream>
 #include <regex>
+#include <set>
 
 #include "replay/snapshot.h"
 
@@ -23,6 +24,7 @@ Status Read(const fs::path& path, SnapshotImage& img) {
   if (!in.read(reinterpret_cast<char*>(version), 8)) return Errorf("snapshot {}: truncated header", name);
   if (version[0] != kSnapshotFormat)
     return Errorf("snapshot {}: format version {} (this build reads {})", name, version[0], kSnapshotFormat);
+  if (version[1] != 0) return Errorf("snapshot {}: header is corrupt (reserved field set)", name);
   in.seekg(0, std::ios::end);
   const uint64_t file_size = uint64_t(in.tellg());
   in.seekg(16);
@@ -37,6 +39,11 @@ Status Read(const fs::path& path, SnapshotImage& img) {
     uint64_t length, hash;
     std::memcpy(&length, h + 8, 8);
     std::memcpy(&hash, h + 16, 8);
+    uint32_t reserved;
+    std::memcpy(&reserved, h + 4, 4);
+    static const std::set<std::string> kTags = {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META", "END!"};
+    if (reserved != 0 || !kTags.count(tag))
+      return Errorf("snapshot {}: section header {} is corrupt", name, img.sections.size());
     if (length > file_size) return Errorf("snapshot {}: truncated in section '{}' ({} bytes announced)", name, tag, length);
     buf.resize(size_t(length));
     if (!in.read(reinterpret_cast<char*>(buf.data()), std::streamsize(length)))
@@ -71,17 +78,18 @@ Status Read(const fs::path& path, SnapshotImage& img) {
   for (const char* need : {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META"})
     if (std::none_of(img.sections.begin(), img.sections.end(), [&](const auto& s) { return s.tag == need; }))
       return Errorf("snapshot {}: section '{}' is missing", name, need);
-  // DATA: the chunk sizes must add up, and the per-chunk hash chain must match
-  uint64_t total = 0, hh = 0xcbf29ce484222325ULL, rows = 0;
+  // DATA: the chunk sizes must add up, and the hash of the per-chunk hashes must match
+  uint64_t total = 0, rows = 0;
+  std::vector<uint64_t> chunk_hashes;
   for (const auto& c : img.chunks) {
     if (c.bytes > img.data.size() - std::min<uint64_t>(total, img.data.size()))
       return Errorf("snapshot {}: chunk records describe more bytes than section 'DATA' holds", name);
-    hh = HashBytes(img.data.data() + total, size_t(c.bytes), hh);
+    chunk_hashes.push_back(HashBytes(img.data.data() + total, size_t(c.bytes)));
     total += c.bytes;
     rows += c.rows;
   }
   auto data = std::find_if(img.sections.begin(), img.sections.end(), [](const auto& s) { return s.tag == "DATA"; });
-  if (total != img.data.size() || hh != data_hash) {
+  if (total != img.data.size() || HashBytes(chunk_hashes.data(), chunk_hashes.size() * 8) != data_hash) {
     data->ok = false;
     return Errorf("snapshot {}: section 'DATA' fails its checksum", name);
   }

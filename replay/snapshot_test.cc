@@ -1,0 +1,215 @@
+#include "replay/snapshot.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <fstream>
+#include <thread>
+
+#include "replay/replay_service.h"
+#include "replay/test_stream.h"
+
+namespace coins {
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+using testing::TestStream;
+
+fs::path TempDir(const std::string& name) {
+  auto dir = fs::temp_directory_path() / ("coins-snap-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+ReplayOptions Options(const fs::path& dir) {
+  ReplayOptions o;
+  o.capacity = 200000;
+  o.capacity_mb = 32;
+  o.snapshot_dir = dir.string();
+  return o;
+}
+
+std::unique_ptr<ReplayService> Open(const ReplayOptions& o, ResumeReport* report) {
+  auto s = ReplayService::Open(0, o, report);
+  EXPECT_TRUE(s.ok()) << s.status().message();
+  return s.ok() ? std::move(*s) : nullptr;
+}
+
+void Fill(ReplayService& s, TestStream& stream, int batches) {
+  for (int i = 0; i < batches; ++i)
+    ASSERT_EQ(s.Insert(*stream.Next(64), 1s), ReplayService::InsertResult::kStored);
+}
+
+TEST(Snapshot, RoundTripKeepsDataLedgerPrioritiesAndCounters) {
+  auto dir = TempDir("roundtrip");
+  ResumeReport report;
+  auto a = Open(Options(dir), &report);
+  EXPECT_TRUE(report.snapshot.empty());
+  TestStream stream(3, 7);
+  Fill(*a, stream, 50);
+  a->Update(msg::UPDATE_PRIORITY, std::vector<uint64_t>{5}, std::vector<float>{9.0f});
+  auto w = a->Snapshot(17);
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  auto before = a->Stats(true);
+  EXPECT_EQ(w->transitions, uint64_t(before.size));
+  EXPECT_GT(before.size, 3000);
+
+  ResumeReport r2;
+  auto b = Open(Options(dir), &r2);
+  EXPECT_EQ(r2.snapshot, w->path);
+  EXPECT_TRUE(r2.corrupt.empty());
+  EXPECT_TRUE(r2.config_changes.empty());
+  auto after = b->Stats(true);
+  EXPECT_EQ(after.size, before.size);
+  EXPECT_EQ(after.shard.inserted_transitions, before.shard.inserted_transitions);
+  ASSERT_EQ(after.actors.size(), 1u);
+  EXPECT_EQ(after.actors.at(3).checksum, before.actors.at(3).checksum);
+  EXPECT_EQ(after.actors.at(3).next_seq, 50u);
+  // every stored chunk hashes back to the ledger's checksum
+  EXPECT_EQ(after.stored.at(3).second, before.actors.at(3).checksum);
+  EXPECT_EQ(after.stored.at(3).first, uint64_t(before.size));
+  // the same stream continues: no duplicates, no gaps
+  Fill(*b, stream, 2);
+  EXPECT_EQ(b->Stats(false).gaps, 0u);
+  EXPECT_EQ(b->Stats(false).duplicates, 0u);
+  auto img = ReadSnapshot(w->path);
+  ASSERT_TRUE(img.ok());
+  EXPECT_EQ(img->meta["command_id"], 17);
+  EXPECT_NEAR(img->priorities[2 * 5], std::pow(9.0, 0.6), 1e-4);
+}
+
+TEST(Snapshot, TruncatedAndBitFlippedSnapshotsAreDetectedAndThePreviousOneUsed) {
+  auto dir = TempDir("corrupt");
+  ResumeReport report;
+  auto a = Open(Options(dir), &report);
+  TestStream stream(1, 1);
+  Fill(*a, stream, 20);
+  auto first = a->Snapshot(1);
+  ASSERT_TRUE(first.ok());
+  Fill(*a, stream, 20);
+  auto second = a->Snapshot(2);
+  ASSERT_TRUE(second.ok());
+  fs::path good = first->path, newest = second->path;
+  fs::copy_file(newest, dir / "copy", fs::copy_options::overwrite_existing);
+  const auto size = fs::file_size(newest);
+
+  // truncated: the newest is skipped with a message, the previous one is used
+  fs::resize_file(newest, size / 2);
+  ResumeReport r;
+  auto b = Open(Options(dir), &r);
+  ASSERT_EQ(r.corrupt.size(), 1u);
+  EXPECT_NE(r.corrupt[0].find("truncated"), std::string::npos) << r.corrupt[0];
+  EXPECT_EQ(r.snapshot, good.string());
+  EXPECT_EQ(r.transitions, first->transitions);
+
+  // one flipped bit in the chunk data, then in the ledger
+  // one flipped bit anywhere is caught: a sweep over the whole file
+  for (uint64_t at = 3; at < size; at += 211) {
+    fs::copy_file(dir / "copy", newest, fs::copy_options::overwrite_existing);
+    {
+      std::fstream f(newest, std::ios::in | std::ios::out | std::ios::binary);
+      f.seekg(std::streamoff(at));
+      char c;
+      f.get(c);
+      f.seekp(std::streamoff(at));
+      f.put(char(c ^ 0x80));
+    }
+    ASSERT_FALSE(ReadSnapshot(newest).ok()) << "flipped byte " << at << " of " << size;
+  }
+  for (uint64_t at : {uint64_t(100), uint64_t(size - 200)}) {
+    fs::copy_file(dir / "copy", newest, fs::copy_options::overwrite_existing);
+    {
+      std::fstream f(newest, std::ios::in | std::ios::out | std::ios::binary);
+      f.seekg(std::streamoff(at));
+      char c;
+      f.get(c);
+      f.seekp(std::streamoff(at));
+      f.put(char(c ^ 0x10));
+    }
+    auto img = ReadSnapshot(newest);
+    ASSERT_FALSE(img.ok()) << "flipped byte " << at << " of " << size;
+    EXPECT_NE(img.status().message().find("fails its checksum"), std::string::npos) << img.status().message();
+    ResumeReport r3;
+    auto c = Open(Options(dir), &r3);
+    EXPECT_EQ(r3.snapshot, good.string());
+  }
+}
+
+TEST(Snapshot, ConfigThatDiffersIsReportedAndTheNewOneWinsOnlyWhenAsked) {
+  auto dir = TempDir("config");
+  ResumeReport report;
+  auto a = Open(Options(dir), &report);
+  TestStream stream(1, 1);
+  Fill(*a, stream, 5);
+  ASSERT_TRUE(a->Snapshot(1).ok());
+  ReplayOptions changed = Options(dir);
+  changed.min_size = 50;
+  ResumeReport r;
+  auto b = Open(changed, &r);
+  ASSERT_EQ(r.config_changes.size(), 1u);
+  EXPECT_EQ(r.config_changes[0], "replay.min_size: 1 -> 50");
+  EXPECT_EQ(b->options().min_size, 1);
+  changed.prefer_new_config = true;
+  ResumeReport r2;
+  auto c = Open(changed, &r2);
+  EXPECT_TRUE(r2.new_config_won);
+  EXPECT_EQ(c->options().min_size, 50);
+}
+
+// inserts and samples go on while a snapshot is written (also a data-race check under TSan)
+TEST(Snapshot, WrittenWhileInsertsAndSamplesGoOn) {
+  auto dir = TempDir("concurrent");
+  ResumeReport report;
+  ReplayOptions o = Options(dir);
+  o.capacity = 20000;  // eviction happens during the snapshot
+  auto s = Open(o, &report);
+  TestStream stream(1, 1);
+  Fill(*s, stream, 400);
+  std::atomic<bool> stop{false};
+  std::atomic<int> inserted{0}, sampled{0};
+  std::thread inserter([&] {
+    TestStream other(2, 1);
+    while (!stop) {
+      s->Insert(*other.Next(64), 1s);
+      inserted++;
+    }
+  });
+  std::thread sampler([&] {
+    msg::SampleRequest q;
+    q.schema_version(msg::SAMPLING_SCHEMA);
+    q.batch_size(32);
+    q.n_step(1);
+    q.gamma(0.9f);
+    q.skill_level(-1);
+    q.timeout_ms(100);
+    msg::SampleReply r;
+    while (!stop) {
+      s->Sample(q, &r, 1s);
+      if (r.status() == msg::SAMPLE_OK) sampled++;
+    }
+  });
+  std::vector<SnapshotWriteResult> written;
+  for (int i = 0; i < 3; ++i) {
+    auto w = s->Snapshot(uint64_t(i + 1));
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    written.push_back(*w);
+  }
+  stop = true;
+  inserter.join();
+  sampler.join();
+  EXPECT_GT(inserted.load(), 0);
+  EXPECT_GT(sampled.load(), 0);
+  for (const auto& w : written) {
+    auto img = ReadSnapshot(w.path);
+    if (!fs::exists(w.path)) continue;  // pruned (keep 3)
+    ASSERT_TRUE(img.ok()) << img.status().message();
+    EXPECT_EQ(img->meta["transitions"], w.transitions);
+    EXPECT_GT(w.transitions, 10000u);
+  }
+}
+
+}  // namespace
+}  // namespace coins

@@ -1,5 +1,7 @@
 #include "orchestrator/status_collector.h"
 
+#include <algorithm>
+
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "idl/statusPubSubTypes.h"
@@ -7,9 +9,12 @@
 namespace coins {
 
 uint64_t StatusView::total_steps() const {
-  uint64_t n = 0;
-  for (const auto& [id, a] : actors) n += a.sample.steps();
-  return n;
+  // actors report their steps; shards report what they stored. A short-lived actor's last
+  // report can be missed by a late watcher, the shards' counts of stored steps cannot.
+  uint64_t reported = 0, stored = 0;
+  for (const auto& [id, a] : actors) reported += a.sample.steps();
+  for (const auto& [id, s] : shards) stored += s.sample.inserted_transitions();
+  return std::max(reported, stored);
 }
 
 double StatusView::total_steps_per_s() const {

@@ -28,6 +28,7 @@ struct StatusView {
   std::map<uint32_t, Entry<msg::ReplayStats>> shards;               // by shard id
   std::optional<Entry<msg::ChainStatus>> chain;
 
+  // env steps of the run: the larger of what actors reported and what shards stored
   uint64_t total_steps() const;
   double total_steps_per_s() const;
 };

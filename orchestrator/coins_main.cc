@@ -3,6 +3,8 @@
 //   coins monitor   live table of a run, from any machine in the DDS domain
 //   coins bench     print a benchmark's figures
 //   coins env       list, roll out and render environments
+//   coins detect    find interactions between factors from env data
+//   coins replay    inspect replay snapshots; coins snapshot asks shards for one now
 #include <filesystem>
 #include <iostream>
 
@@ -11,9 +13,11 @@
 #include <CLI/CLI.hpp>
 
 #include "actors/envs/env_cli.h"
+#include "detector/detect_cli.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
+#include "replay/replay_cli.h"
 
 namespace coins {
 namespace {
@@ -58,6 +62,8 @@ int main(int argc, char** argv) {
   coins::AddMonitorCommand(app, &exit_code);
   coins::AddBenchCommand(app, &exit_code);
   coins::envs::AddEnvCommands(app);
+  coins::detector::AddDetectCommand(app);
+  coins::AddReplayCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,244 @@
+// System tests of the replay service: real coins-actor and coins-replay processes, a sampling
+// client over DDS, the rate limiter across processes, and malformed input.
+#include <cmath>
+#include <set>
+
+#include "common/dds/qos.h"
+#include "common/transition_batch.h"
+#include "idl/samplingPubSubTypes.h"
+#include "idl/transitionPubSubTypes.h"
+#include "replay/sampling_topics.h"
+#include "tests/replay/replay_cluster.h"
+
+namespace coins {
+namespace {
+
+using namespace coins::testing;
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
+  ReplayCluster c{TempDir("replay-sampling"), TestDomain(31)};
+  c.StartShards();
+  const int64_t steps = 15000;
+  c.StartActors(steps);
+  c.Join();
+  for (auto& a : c.actors) {
+    ASSERT_TRUE(a.WaitFor(90s)) << a.name() << " did not finish";
+    ASSERT_TRUE(a.succeeded()) << a.name() << " " << a.Describe();
+  }
+  ASSERT_TRUE(WaitUntil([&] { return c.Stats(0).size() > 0 && c.Stats(1).size() > 0; }, 20s));
+
+  ReplayClientOptions o;
+  o.gamma = 0.9f;
+  o.n_step = 3;
+  o.timeout = 5s;
+  auto client = c.Client(o);
+  ASSERT_TRUE(client->WaitForShards(20s));
+  rl::Batch batch;
+  // uniform, n-step: both shards contribute in proportion to their sizes
+  for (int round = 0; round < 3; ++round) {
+    Status s = client->Sample(256, &batch);
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  ASSERT_EQ(batch.size(), 256);
+  std::map<uint32_t, int> per_shard;
+  for (int j = 0; j < 256; ++j) {
+    per_shard[ReplayClient::KeyShard(batch.keys[size_t(j)])]++;
+    ASSERT_TRUE(std::isfinite(batch.rewards(0, j)));
+    float d = batch.discounts(0, j);
+    EXPECT_TRUE(d == 0 || std::abs(d - 0.9f) < 1e-5 || std::abs(d - 0.81f) < 1e-5 || std::abs(d - 0.729f) < 1e-5)
+        << "discount " << d << " reward " << batch.rewards(0, j);
+    EXPECT_EQ(batch.weights(0, j), 1.0f);
+    EXPECT_NE((batch.obs.col(j) - batch.next_obs.col(j)).norm(), -1.0f);
+  }
+  ASSERT_EQ(per_shard.size(), 2u);
+  EXPECT_NEAR(per_shard[0], 128, 20);  // equal actors, equal shards
+
+  // prioritised: raise a handful of keys, they dominate the next batches
+  client->options().strategy = msg::SAMPLE_PRIORITIZED;
+  client->options().n_step = 1;
+  ASSERT_TRUE(client->Sample(256, &batch).ok());
+  // four keys from each shard (each shard samples its share from its own priorities)
+  std::vector<uint64_t> hot;
+  for (uint32_t k = 0; k < 2; ++k)
+    for (size_t j = 0, n = 0; j < batch.keys.size() && n < 4; ++j)
+      if (ReplayClient::KeyShard(batch.keys[j]) == k) hot.push_back(batch.keys[j]), ++n;
+  ASSERT_EQ(hot.size(), 8u);
+  std::vector<float> high(8, 1e9f);  // 1e9^0.6 each: far above the ~15k unit masses per shard
+  client->UpdatePriorities(hot, high);
+  std::set<uint64_t> hot_set(hot.begin(), hot.end());
+  int hits = 0;
+  ASSERT_TRUE(WaitUntil([&] {
+    if (!client->Sample(256, &batch).ok()) return false;
+    hits = 0;
+    for (uint64_t k : batch.keys) hits += hot_set.count(k);
+    return hits > 200;
+  }, 10s)) << "priority updates did not take effect (" << hits << " hot samples)";
+  for (int j = 0; j < 256; ++j)
+    if (!hot_set.count(batch.keys[size_t(j)])) EXPECT_FLOAT_EQ(batch.weights(0, j), 1.0f);
+
+  // hindsight: goals relabelled from the segment, rewards recomputed for them
+  client->options().strategy = msg::SAMPLE_UNIFORM;
+  client->options().her_strategy = msg::HER_FUTURE;
+  client->options().her_ratio = 1.0f;
+  client->options().goal_mask = {1.0f, 1.0f};
+  client->options().target_offset = 0;
+  client->options().goal_epsilon = 0.5f;
+  Status s = client->Sample(256, &batch);
+  ASSERT_TRUE(s.ok()) << s.message();
+  const int S = int(batch.obs.rows()) - 2;
+  int reached = 0;
+  for (int j = 0; j < 256; ++j) {
+    float dist = std::max(std::abs(batch.next_obs(0, j) - batch.obs(S, j)), std::abs(batch.next_obs(1, j) - batch.obs(S + 1, j)));
+    bool hit = dist <= 0.5f;
+    reached += hit;
+    EXPECT_EQ(batch.rewards(0, j), hit ? 0.0f : -1.0f) << "sample " << j;
+    if (hit) EXPECT_EQ(batch.discounts(0, j), 0.0f);
+  }
+  EXPECT_GT(reached, 0);
+
+  // exactly once, and the stored bytes hash to what the actors sent
+  StopAll(c.shards, 10s);
+  for (int i = 0; i < 2; ++i) {
+    auto actor = ReadJson(c.dir / ("actor-" + std::to_string(i) + ".json"));
+    auto shard = ReadJson(c.dir / ("replay-" + std::to_string(i) + ".json"));
+    ASSERT_FALSE(actor.is_null());
+    ASSERT_FALSE(shard.is_null());
+    ASSERT_EQ(shard["actors"].size(), 1u);
+    const auto& ledger = shard["actors"][0];
+    EXPECT_EQ(ledger["transitions"], actor["transitions_published"]);
+    EXPECT_EQ(ledger["payload_checksum"], actor["payload_checksum"]);
+    EXPECT_EQ(ledger["stored_checksum"], actor["payload_checksum"]);
+    EXPECT_EQ(ledger["stored_transitions"], actor["transitions_published"]);
+    EXPECT_EQ(shard["duplicates"], 0);
+    EXPECT_EQ(shard["gaps"], 0);
+    EXPECT_GT(shard["samples_served"].get<int64_t>(), 256 * 3);
+  }
+}
+
+TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {
+  // a configuration that could deadlock is refused before anything starts
+  auto refused = RunCommand(Bin("coins-replay") + " --quiet-config --set replay.samples_per_insert=2 --set replay.error_buffer=10");
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("would deadlock"), std::string::npos) << refused.output;
+
+  ReplayCluster c{TempDir("replay-rate"), TestDomain(32)};
+  c.shards_n = 1;
+  c.actors_n = 1;
+  c.StartShards({"--set", "replay.min_size=3000"});
+  c.Join();
+  ReplayClientOptions o;
+  o.timeout = 400ms;
+  auto client = c.Client(o);
+  ASSERT_TRUE(client->WaitForShards(20s));
+  rl::Batch batch;
+  auto t0 = Clock::now();
+  Status s = client->Sample(64, &batch);
+  auto blocked = Clock::now() - t0;
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("rate limiter"), std::string::npos) << s.message();
+  EXPECT_GE(blocked, 280ms);  // the shard waits 3/4 of the client timeout, then answers NOT_READY
+  EXPECT_LT(blocked, 3s);
+
+  // data arrives: a waiting request is released within the second timeout
+  c.StartActors(0);
+  client->options().timeout = 30s;
+  auto t1 = Clock::now();
+  s = client->Sample(64, &batch);
+  ASSERT_TRUE(s.ok()) << s.message();
+  EXPECT_LT(Clock::now() - t1, 25s);
+  EXPECT_GE(client->shard_sizes()[0], 3000u);
+  EXPECT_GT(c.Stats(0).rate_limited() + 1, 0u);
+}
+
+// malformed batches (wrong sizes, NaN, unknown schema) and requests are rejected and counted,
+// and the shard keeps storing and serving
+TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
+  ReplayCluster c{TempDir("replay-malformed"), TestDomain(33)};
+  c.shards_n = 1;
+  c.StartShards();
+  c.Join();
+  DdsOptions dds;
+  dds.domain = c.domain;
+  auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
+                                                                  dds::ShardPartition(0));
+  ASSERT_TRUE(writer.ok());
+  ASSERT_TRUE(WaitUntil([&] { return writer->matched() > 0; }, 20s));
+  auto make = [](uint64_t seq) {
+    auto b = std::make_unique<TransitionBatch>();
+    BatchBuilder builder;
+    builder.Begin(b.get(), {.actor_id = 9, .incarnation = 5, .seq = seq, .layout_hash = LayoutHash("m", 3, 1, 0),
+                            .state_dim = 3, .action_dim = 1}, 16);
+    for (uint32_t r = 0; r < 16; ++r) {
+      float s[3] = {float(seq * 100 + r), 1, 2}, a[1] = {0};
+      builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
+    }
+    builder.Finish();
+    return b;
+  };
+  auto wrong_size = make(0);
+  wrong_size->flags().pop_back();
+  auto nan = make(0);
+  nan->reward()[3] = std::nanf("");
+  auto schema = make(0);
+  schema->schema_version(99);
+  for (auto* b : {wrong_size.get(), nan.get(), schema.get()}) ASSERT_TRUE(writer->Write(*b));
+  uint64_t sent = 0;
+  for (uint64_t seq = 0; seq < 3; ++seq) {
+    auto b = make(seq);
+    sent += b->payload_hash();
+    ASSERT_TRUE(writer->Write(*b));
+  }
+  ASSERT_TRUE(writer->WaitAcked(10s));
+
+  // malformed requests are answered BAD_REQUEST, then a good one is served
+  auto requests = c.node->MakeWriter<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingWriterQos(16));
+  auto replies = c.node->MakeReader<msg::SampleReplyPubSubType>(dds::kSampleReplyTopic, dds::SamplingReaderQos(16));
+  ASSERT_TRUE(requests.ok() && replies.ok());
+  ASSERT_TRUE(WaitUntil([&] { return requests->matched() > 0; }, 20s));
+  std::map<uint64_t, msg::SampleReply> got;
+  auto ask = [&](uint64_t id, uint32_t schema_version, uint32_t batch) {
+    msg::SampleRequest q;
+    q.schema_version(schema_version);
+    q.correlation_id(id);
+    q.shard_id(-1);
+    q.batch_size(batch);
+    q.n_step(1);
+    q.gamma(0.5f);
+    q.skill_level(-1);
+    q.timeout_ms(1000);
+    ASSERT_TRUE(requests->Write(q));
+  };
+  ask(1, 77, 8);
+  ask(2, msg::SAMPLING_SCHEMA, 0);
+  ask(3, msg::SAMPLING_SCHEMA, 8);
+  ASSERT_TRUE(WaitUntil([&] {
+    replies->TakeAll([&](const msg::SampleReply& r, const auto&) { got[r.correlation_id()] = r; });
+    return got.size() == 3;
+  }, 20s));
+  EXPECT_EQ(got[1].status(), msg::SAMPLE_BAD_REQUEST);
+  EXPECT_NE(got[1].error().find("schema_version 77"), std::string::npos) << got[1].error();
+  EXPECT_EQ(got[2].status(), msg::SAMPLE_BAD_REQUEST);
+  EXPECT_NE(got[2].error().find("batch_size 0"), std::string::npos) << got[2].error();
+  ASSERT_EQ(got[3].status(), msg::SAMPLE_OK) << got[3].error();
+  for (uint32_t i = 0; i < 8; ++i) {
+    // sampled values are what was sent: next state counts one past the state, reward 1
+    float s0 = got[3].state()[i * 3];
+    EXPECT_EQ(got[3].reward()[i], 1.0f);
+    ASSERT_GE(got[3].next_end()[i], 1u);
+    EXPECT_EQ(got[3].next_value()[i ? got[3].next_end()[i - 1] : 0], s0 + 1);
+  }
+
+  StopAll(c.shards, 10s);
+  ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
+  auto shard = ReadJson(c.dir / "replay-0.json");
+  ASSERT_FALSE(shard.is_null());
+  EXPECT_EQ(shard["rejected"], 3);
+  EXPECT_EQ(shard["inserted_batches"], 3);
+  EXPECT_EQ(shard["bad_requests"], 2);
+  EXPECT_EQ(shard["actors"][0]["stored_checksum"], sent);
+}
+
+}  // namespace
+}  // namespace coins

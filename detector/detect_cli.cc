@@ -30,6 +30,9 @@ void Run(CliState& c) {
   DetectorOptions o = DefaultDetectorOptions(c.req.env, false);
   o.passive_steps = c.req.options.passive_steps;
   o.active_steps = c.req.options.active_steps;
+  o.passive_hard_steps = c.req.options.passive_hard_steps;
+  o.passive_hard_lambda = c.req.options.passive_hard_lambda;
+  o.counterfactual_draws = c.req.options.counterfactual_draws;
   o.seed = c.req.seed;
   o.eps_act = c.req.options.eps_act;
   o.eps_pas = c.req.options.eps_pas;
@@ -76,11 +79,23 @@ void AddDetectCommand(CLI::App& app) {
   cmd->add_flag("--json", c->json, "print one JSON object");
   cmd->add_flag("--eval", c->req.eval, "false positives/negatives against the simulator's labels on fresh data");
   cmd->add_option("--eval-steps", c->req.eval_steps, "steps of evaluation data (default: --steps)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--holdout", c->req.holdout,
+                  "fraction of the data held out of training and scored (0: score the training data)")
+      ->capture_default_str()->check(CLI::Range(0.0, 0.99));
   cmd->add_flag("--granger", c->req.granger, "also run the linear Granger F-test on the same data");
   cmd->add_option("--granger-window", c->req.granger_window, "history window w of the linear test")
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--passive-steps", c->req.options.passive_steps, "Adam steps of the passive model")
       ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--passive-hard-steps", c->req.options.passive_hard_steps,
+                  "passive steps after the active model's warm start")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--passive-hard-lambda", c->req.options.passive_hard_lambda,
+                  "up-weight of the passive model's own misses in its second phase")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--counterfactual-draws", c->req.options.counterfactual_draws,
+                  "draws of another transition's source in the counterfactual check (0: off)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--active-steps", c->req.options.active_steps, "Adam steps of the active model")
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128")

@@ -28,6 +28,7 @@ Status DetectRequest::Validate() const {
   if (source.empty()) return Errorf("--source is required");
   if (steps <= 0) return Errorf("--steps must be positive, got {}", steps);
   if (eval_steps < 0) return Errorf("--eval-steps must be >= 0, got {}", eval_steps);
+  if (!(holdout >= 0.0 && holdout < 1.0)) return Errorf("--holdout must be in [0, 1), got {}", holdout);
   if (granger_window < 1) return Errorf("--granger-window must be >= 1, got {}", granger_window);
   return options.Validate();
 }
@@ -71,6 +72,12 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
   report["steps"] = req.steps;
   report["seed"] = req.seed;
   report["collect_seconds"] = Seconds(t0);
+  // split: train on the head, score on the held-out tail
+  const int64_t n_score = int64_t(req.holdout * double(data->size()));
+  const TransitionSet train = n_score > 0 ? data->Slice(0, data->size() - n_score) : data->Slice(0, data->size());
+  const TransitionSet scored = n_score > 0 ? data->Slice(data->size() - n_score, data->size()) : data->Slice(0, data->size());
+  report["holdout"] = req.holdout;
+  report["scored_states"] = scored.size();
   report["eps_si"] = req.options.eps_si;
   report["mask_rule"] = MaskRuleName(req.options.mask_rule);
 
@@ -90,11 +97,11 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
   for (const std::string& target : targets) {
     DetectorOptions opts = req.options;
     auto t1 = std::chrono::steady_clock::now();
-    Result<PairDetector> det = PairDetector::Train(spec, data.value(), req.source, target, opts);
+    Result<PairDetector> det = PairDetector::Train(spec, train, req.source, target, opts);
     if (!det.ok()) return det.status();
     const double train_s = Seconds(t1);
     auto t2 = std::chrono::steady_clock::now();
-    PairScores s = det->Score(data.value());
+    PairScores s = det->Score(scored);
     const double score_s = Seconds(t2);
     nlohmann::json j;
     j["target"] = target;

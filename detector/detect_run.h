@@ -29,6 +29,9 @@ struct DetectRequest {
   int64_t eval_steps = 0;            // 0: same as steps
   bool granger = false;
   int granger_window = 1;
+  // the last holdout fraction of the data is not trained on; scores, masks and goal sets are
+  // computed on it (0: train and score on all the data, as the paper does)
+  double holdout = 0.2;
   DetectorOptions options;
   Status Validate() const;
 };

@@ -53,14 +53,14 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
     active.WarmStartFrom(det.passive_, L.source_input_dim());
   }
 
-  // second passive phase: up-sample the passive model's own misses away from the source, so
-  // that it is trained as hard as the active model on what it can predict (walls)
+  // second passive phase, while the active model trains: optionally up-sample the passive
+  // model's own misses away from the source (passive_hard_lambda)
   Eigen::VectorXf ll_pas;
   if (options.passive_hard_steps > 0) {
     det.passive_.LogLikelihood(s.passive_in, s.target, &ll_pas);
     std::vector<float> pw(pool.size());
     for (size_t i = 0; i < pool.size(); ++i) {
-      pw[i] = ll_pas[pool[i]] < options.eps_pas ? options.lambda + 1.0f : 1.0f;
+      pw[i] = ll_pas[pool[i]] < options.eps_pas ? options.passive_hard_lambda + 1.0f : 1.0f;
     }
     det.stats_.passive_loss = det.passive_.Train(s.passive_in, s.target, pool, pw,
                                                  options.passive_hard_steps, options.batch,
@@ -123,7 +123,12 @@ PairDetector::Detection PairDetector::Detect(const TransitionSet& data, bool all
     for (int k = 0; k < options_.counterfactual_draws; ++k) {
       for (size_t c = 0; c < cand.size(); ++c) {
         const int64_t j = cand[c];
-        const int64_t o = pick(rng);
+        // another sample whose source differs (what if the source had been different)
+        int64_t o = pick(rng);
+        for (int tries = 0; tries < 16; ++tries) {
+          if (d.samples.active_in.col(o).head(src) != d.samples.active_in.col(j).head(src)) break;
+          o = pick(rng);
+        }
         in.col(c) = d.samples.active_in.col(j);
         tgt.col(c) = d.samples.target.col(j);
         // the other sample's source, and relative positions recomputed against this target
@@ -209,8 +214,9 @@ PairScores PairDetector::Score(const TransitionSet& data) {
     r.mask_diff[k] = float(dev[k] / double(hits.size()));
     max_dev = std::max(max_dev, double(r.mask_diff[k]));
   }
-  const double thr = options_.mask_rule == MaskRule::kRelative ? options_.eps_eta * max_dev
-                                                               : options_.eps_eta;
+  const double thr = options_.mask_rule == MaskRule::kRelative
+                         ? options_.eps_eta_relative * max_dev
+                         : options_.eps_eta;
   std::vector<int> feats;
   std::vector<float> half;
   for (int k = 0; k < L.target_features; ++k) {

@@ -13,7 +13,7 @@ namespace coins::detector {
 // how eq. 10's per-feature mean deviation d_k (normalised units, [-1, 1] per feature bound)
 // becomes the control mask
 enum class MaskRule {
-  kRelative,  // eta_k = d_k > eps_eta * max_j d_j (default; see detector/README.md)
+  kRelative,  // eta_k = d_k > eps_eta_relative * max_j d_j (default; see detector/README.md)
   kAbsolute,  // eta_k = d_k > eps_eta, the literal eq. 10
 };
 const char* MaskRuleName(MaskRule r);
@@ -22,10 +22,11 @@ struct DetectorOptions {
   // ---- models: conditional Gaussians over the scaled change of the target ----------------
   std::vector<int> passive_hidden = {128, 128};  // paper: 256-256 .. 512x3 (see --paper-sizes)
   std::vector<int> active_hidden = {128, 128};
-  float lr = 1e-3f;             // paper 1e-4 with far longer training
-  int passive_steps = 2000;     // Adam steps per model
-  int passive_hard_steps = 2000;  // then steps up-sampling the passive model's own misses
-  int active_steps = 2000;      // after the warm start from the passive model
+  float lr = 3e-3f;             // paper 1e-4 (with far longer training)
+  int passive_steps = 4000;     // Adam steps of the passive model
+  int passive_hard_steps = 4000;  // passive steps after the active model's warm start
+  float passive_hard_lambda = 0.0f;  // up-weight of the passive model's own misses then
+  int active_steps = 10000;     // after the warm start from the passive model
   int batch = 256;
   float clip_norm = 10.0f;      // global gradient-norm clip
   float min_std = 0.01f;        // the paper's minimum std, in scaled-change units
@@ -52,7 +53,8 @@ struct DetectorOptions {
   float eps_cf = 2.0f;     // fewer detected interactions: Sc_I = 0 (no evidence)
 
   // ---- mask and goal set (eq. 10, section 3.4.1) --------------------------------------------
-  float eps_eta = 0.1f;
+  float eps_eta = 0.1f;          // the absolute rule's threshold (normalised units)
+  float eps_eta_relative = 0.4f; // the relative rule's fraction of the largest deviation
   MaskRule mask_rule = MaskRule::kRelative;
   float goal_dedup = 0.1f;      // L1 in normalised units below which two goals are one
   int n_disc = 10;              // fewer unique goals: a discrete goal space

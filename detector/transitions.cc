@@ -126,7 +126,11 @@ class GoalPolicy {
       target_ = {u(rng_)};
     } else {
       target_.resize(3);
-      for (int i = 0; i < 3; ++i) target_[i] = std::uniform_real_distribution<float>(lo_[i], hi_[i])(rng_);
+      // x, y anywhere; z in the lowest quarter, where the fingertip can reach the cube
+      for (int i = 0; i < 3; ++i) {
+        const float hi = i == 2 ? lo_[i] + 0.25f * (hi_[i] - lo_[i]) : hi_[i];
+        target_[i] = std::uniform_real_distribution<float>(lo_[i], hi)(rng_);
+      }
     }
   }
 

@@ -59,7 +59,8 @@ class TransitionSet {
 
 // How data is collected. policy: "random" (uniform actions), "goals" (a scripted stand-in for
 // the learned skill with random goals: Breakout's paddle or pushing's gripper moves to a random
-// target, a new one when reached or after goal_timeout steps), or a file path holding one action
+// target, a new one when reached or after goal_timeout steps; gripper targets have z in the
+// lowest quarter of its range, the cube's height), or a file path holding one action
 // per line (floats separated by spaces or commas), replayed in a cycle.
 struct CollectOptions {
   std::string policy = "random";

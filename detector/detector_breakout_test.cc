@@ -1,0 +1,116 @@
+// The detector on real Breakout data with fixed seeds: which links pass, their masks and goal
+// sets, and the detections against the simulator's labels. Training is shortened (a few
+// thousand Adam steps) to keep the tests fast; the README has the long runs.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <utility>
+
+#include "detector/granger.h"
+#include "detector/interaction.h"
+
+namespace coins::detector {
+namespace {
+
+TransitionSet Collect(const std::string& env_name, const std::string& policy, int64_t steps,
+                      uint64_t seed) {
+  Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv(env_name);
+  EXPECT_TRUE(env.ok());
+  CollectOptions co;
+  co.policy = policy;
+  co.steps = steps;
+  co.seed = seed;
+  Result<TransitionSet> data = CollectTransitions(**env, co);
+  EXPECT_TRUE(data.ok()) << data.status().message();
+  return std::move(data.value());
+}
+
+DetectorOptions FastOptions() {
+  DetectorOptions o = DefaultDetectorOptions("breakout");
+  o.passive_steps = 1500;
+  o.passive_hard_steps = 1500;
+  o.active_steps = 3000;
+  o.seed = 7;
+  return o;
+}
+
+PairScores TrainAndScore(const envs::EnvSpec& spec, const TransitionSet& train,
+                         const TransitionSet& scored, const std::string& source,
+                         const std::string& target, const DetectorOptions& o) {
+  Result<PairDetector> det = PairDetector::Train(spec, train, source, target, o);
+  EXPECT_TRUE(det.ok()) << det.status().message();
+  return det->Score(scored);
+}
+
+TEST(BreakoutDetector, ActionPaddlePassesActionBallAndBlockFail) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  const TransitionSet data = Collect("breakout", "random", 20000, 1);
+  const TransitionSet train = data.Slice(0, 16000), scored = data.Slice(16000, 20000);
+  const DetectorOptions o = FastOptions();
+
+  const PairScores paddle = TrainAndScore(spec, train, scored, "Action", "Paddle", o);
+  EXPECT_TRUE(paddle.pass) << "Sc_I " << paddle.score;
+  EXPECT_GT(paddle.score, o.eps_si);
+  EXPECT_GT(paddle.interactions, 1000);  // the paddle moves on about half of the steps
+  EXPECT_EQ(paddle.mask, (std::vector<int>{0, 1, 0, 0, 0}));  // only x
+  EXPECT_EQ(paddle.goals.kind, GoalSet::Kind::kContinuous);
+  ASSERT_EQ(paddle.goals.low.size(), 1u);
+  EXPECT_LT(paddle.goals.low[0], 20.0f);
+  EXPECT_GT(paddle.goals.high[0], 64.0f);
+
+  const PairScores ball = TrainAndScore(spec, train, scored, "Action", "Ball", o);
+  EXPECT_FALSE(ball.pass) << "Sc_I " << ball.score << " N_int " << ball.interactions;
+  EXPECT_LT(ball.score, paddle.score);
+  const PairScores block = TrainAndScore(spec, train, scored, "Action", "Block", o);
+  EXPECT_FALSE(block.pass) << "Sc_I " << block.score << " N_int " << block.interactions;
+  EXPECT_LT(block.score, paddle.score);
+}
+
+TEST(BreakoutDetector, PaddleBallPassesWithVelocityMaskAndTheFourBounces) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  const TransitionSet train = Collect("breakout", "random", 100000, 2);
+  const TransitionSet fresh = Collect("breakout", "random", 30000, 3);
+  DetectorOptions o = FastOptions();
+  o.passive_steps = 2000;
+  o.passive_hard_steps = 2000;
+  o.active_steps = 4000;
+  Result<PairDetector> det = PairDetector::Train(spec, train, "Paddle", "Ball", o);
+  ASSERT_TRUE(det.ok()) << det.status().message();
+
+  const PairScores s = det->Score(fresh);
+  EXPECT_TRUE(s.pass) << "Sc_I " << s.score;
+  EXPECT_GT(s.score, 100.0);  // a bounce is far outside the passive model's prediction
+  EXPECT_EQ(s.mask, (std::vector<int>{0, 0, 1, 1, 0}));  // vy, vx
+  ASSERT_EQ(s.goals.kind, GoalSet::Kind::kDiscrete);
+  std::set<std::pair<float, float>> goals;
+  for (const auto& g : s.goals.goals) goals.insert({g[0], g[1]});
+  const std::set<std::pair<float, float>> bounces = {{-1, -1}, {-2, -1}, {-2, 1}, {-1, 1}};
+  EXPECT_EQ(goals, bounces);
+
+  // against the simulator's labels on the fresh data
+  const PairEvaluation e = det->Evaluate(spec, fresh);
+  ASSERT_TRUE(e.has_truth);
+  EXPECT_GT(e.true_interactions, 50);
+  EXPECT_LE(e.fp_per_state, 2e-4) << e.false_positives << " false positives";
+  EXPECT_LT(e.fn_per_interaction, 0.35) << e.false_negatives << " of " << e.true_interactions;
+}
+
+TEST(BreakoutDetector, LinearGrangerFindsActionPaddleOnly) {
+  auto env = envs::MakeEnv("breakout");
+  const TransitionSet data = Collect("breakout", "random", 20000, 1);
+  GrangerOptions go;
+  Result<std::vector<GrangerResult>> r =
+      LinearGrangerTest((*env)->spec(), data, "Action", {"Paddle", "Ball", "Block"}, go);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  ASSERT_EQ(r->size(), 3u);
+  EXPECT_TRUE((*r)[0].causes);
+  EXPECT_EQ((*r)[0].feature, "x");
+  EXPECT_GT((*r)[0].f_stat, 1000.0);
+  EXPECT_FALSE((*r)[1].causes) << "p " << (*r)[1].p_value;
+  EXPECT_FALSE((*r)[2].causes) << "p " << (*r)[2].p_value;
+}
+
+}  // namespace
+}  // namespace coins::detector

@@ -1,6 +1,7 @@
 // coins-actor: runs environments with the current policy and streams their transitions to
 // replay shard (actor id mod run.shards) over DDS.
 #include <fstream>
+#include <optional>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -65,7 +66,15 @@ int ActorMain(int argc, char** argv) {
                   heartbeat.status().message());
     return 1;
   }
-  DdsBatchSink sink(*writer, [] { return StopRequested(); });
+  // after a stop request the actor stops stepping but still publishes its partial batches;
+  // the sink gives up waiting for the shard only once flush_timeout_s has passed
+  std::optional<std::chrono::steady_clock::time_point> stop_seen;
+  auto flush_timeout = std::chrono::duration<double>(options.flush_timeout_s);
+  DdsBatchSink sink(*writer, [&] {
+    if (!StopRequested()) return false;
+    if (!stop_seen) stop_seen = std::chrono::steady_clock::now();
+    return std::chrono::steady_clock::now() - *stop_seen > flush_timeout;
+  });
   auto actor = Actor::Create(run.env, options, static_cast<uint32_t>(id), static_cast<uint64_t>(run.seed), &sink);
   if (!actor.ok()) {
     spdlog::error("{}", actor.status().message());

@@ -44,14 +44,7 @@ void Run(CliState& c) {
   if (!c.hidden.empty()) o.passive_hidden = o.active_hidden = c.hidden;
   if (c.mask_rule == "absolute") o.mask_rule = MaskRule::kAbsolute;
   c.req.options = o;
-  if (c.paper_sizes) {
-    // one target at a time needs its own sizes; applied in RunDetect order below
-    for (const auto& t : c.req.targets) {
-      DetectorOptions p = DefaultDetectorOptions(c.req.env, true, c.req.source, t);
-      c.req.options.passive_hidden = p.passive_hidden;
-      c.req.options.active_hidden = p.active_hidden;
-    }
-  }
+  c.req.paper_sizes = c.paper_sizes;
   Result<nlohmann::json> r = RunDetect(c.req);
   if (!r.ok()) Fail(r.status());
   if (c.json) {
@@ -100,7 +93,7 @@ void AddDetectCommand(CLI::App& app) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128")
       ->delimiter(',')->check(CLI::PositiveNumber);
-  cmd->add_flag("--paper-sizes", c->paper_sizes, "the paper's network sizes (needs one --targets entry)");
+  cmd->add_flag("--paper-sizes", c->paper_sizes, "the paper's network sizes for the pairs it names (else --hidden or 128,128)");
   cmd->add_option("--lr", c->req.options.lr, "Adam learning rate")->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--lambda", c->req.options.lambda, "active up-weight of passive-error states")
       ->capture_default_str()->check(CLI::NonNegativeNumber);

@@ -96,6 +96,13 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
   report["targets"] = nlohmann::json::array();
   for (const std::string& target : targets) {
     DetectorOptions opts = req.options;
+    if (req.paper_sizes) {
+      const DetectorOptions p = DefaultDetectorOptions(req.env, true, req.source, target);
+      if (p.active_hidden != DetectorOptions().active_hidden) {
+        opts.passive_hidden = p.passive_hidden;
+        opts.active_hidden = p.active_hidden;
+      }
+    }
     auto t1 = std::chrono::steady_clock::now();
     Result<PairDetector> det = PairDetector::Train(spec, train, req.source, target, opts);
     if (!det.ok()) return det.status();
@@ -123,6 +130,7 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
     }
     j["goal_unique_raw"] = s.goals.raw_unique;
     j["pass"] = s.pass;
+    j["hidden"] = opts.active_hidden;
     j["train_seconds"] = train_s;
     const PairDetector::TrainStats& ts = det->train_stats();
     j["train"] = {{"samples", ts.samples}, {"passive_pool", ts.passive_pool},

@@ -33,6 +33,7 @@ struct DetectRequest {
   // computed on it (0: train and score on all the data, as the paper does)
   double holdout = 0.2;
   DetectorOptions options;
+  bool paper_sizes = false;          // the paper's network sizes for the pairs it names
   Status Validate() const;
 };
 

@@ -10,6 +10,7 @@
 #include "detector/detect_cli.h"
 #include "detector/goal_set.h"
 #include "detector/granger.h"
+#include "detector/interaction.h"
 #include "detector/options.h"
 #include "detector/transitions.h"
 
@@ -143,6 +144,33 @@ TEST(Transitions, SliceAndEpisodeStarts) {
   Result<TransitionSet> bad = CollectTransitions(**env, co);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("--policy"), std::string::npos);
+}
+
+TEST(PairDetector, WeightsRoundTripThroughABlob) {
+  auto env = envs::MakeEnv("breakout");
+  CollectOptions co;
+  co.steps = 3000;
+  Result<TransitionSet> d = CollectTransitions(**env, co);
+  ASSERT_TRUE(d.ok());
+  DetectorOptions o;
+  o.passive_steps = o.passive_hard_steps = 200;
+  o.active_steps = 300;
+  Result<PairDetector> det = PairDetector::Train((*env)->spec(), *d, "Action", "Paddle", o);
+  ASSERT_TRUE(det.ok());
+  const std::vector<uint8_t> blob = det->WeightsBlob();
+  Result<PairDetector> copy = PairDetector::Create(det->layout(), o);
+  ASSERT_TRUE(copy.ok());
+  ASSERT_TRUE(copy->LoadWeights(blob).ok());
+  const PairScores a = det->Score(*d), b = copy->Score(*d);
+  EXPECT_EQ(a.interactions, b.interactions);
+  EXPECT_DOUBLE_EQ(a.score, b.score);
+  EXPECT_EQ(copy->TransitionFlags(*d), det->TransitionFlags(*d));
+  // a blob of the wrong pair is an error naming the pair
+  Result<PairDetector> other = PairDetector::Train((*env)->spec(), *d, "Action", "Ball", o);
+  ASSERT_TRUE(other.ok());
+  const Status st = copy->LoadWeights(other->WeightsBlob());
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("Action->Paddle"), std::string::npos) << st.message();
 }
 
 // parses args as `detect ...`; returns the exception message, or "" when it ran

@@ -50,6 +50,7 @@ class GaussianModel {
 
   const GaussianModelOptions& options() const { return options_; }
   nn::Mlp& net() { return net_; }
+  const nn::ParamSet& params() const { return net_.params(); }
 
  private:
   GaussianModelOptions options_;

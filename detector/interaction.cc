@@ -1,10 +1,53 @@
 #include "detector/interaction.h"
 
+#include "common/nn/serialize.h"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 
 namespace coins::detector {
+
+namespace {
+
+GaussianModelOptions ModelOptions(const PairLayout& L, const DetectorOptions& o, bool active) {
+  GaussianModelOptions m;
+  m.input_dim = active ? L.active_input_dim() : L.passive_input_dim();
+  m.output_dim = L.output_dim();
+  m.hidden = active ? o.active_hidden : o.passive_hidden;
+  m.lr = o.lr;
+  m.clip_norm = o.clip_norm;
+  m.min_std = o.min_std;
+  return m;
+}
+
+}  // namespace
+
+Result<PairDetector> PairDetector::Create(const PairLayout& layout,
+                                          const DetectorOptions& options) {
+  COINS_RETURN_IF_ERROR(options.Validate());
+  PairDetector det;
+  det.layout_ = layout;
+  det.options_ = options;
+  if (det.trained()) {
+    det.passive_ = GaussianModel(ModelOptions(layout, options, false), options.seed + 1);
+    det.active_ = GaussianModel(ModelOptions(layout, options, true), options.seed + 3);
+  }
+  return det;
+}
+
+std::vector<uint8_t> PairDetector::WeightsBlob() const {
+  if (!trained()) return {};
+  const nn::ParamSet* sets[2] = {&passive_.params(), &active_.params()};
+  return nn::ToBlob(std::span<const nn::ParamSet* const>(sets, 2));
+}
+
+Status PairDetector::LoadWeights(std::span<const uint8_t> blob) {
+  if (!trained()) return Errorf("{}->{}: the detector has no models to load", layout_.source, layout_.target);
+  nn::ParamSet* sets[2] = {&passive_.net().params(), &active_.net().params()};
+  return nn::FromBlob(blob, std::span<nn::ParamSet* const>(sets, 2),
+                      fmt::format("{}->{} detector weights", layout_.source, layout_.target));
+}
 
 Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const TransitionSet& data,
                                          const std::string& source, const std::string& target,
@@ -23,14 +66,7 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
   const int64_t m = s.size();
 
   // passive model, away from proximity
-  GaussianModelOptions po;
-  po.input_dim = L.passive_input_dim();
-  po.output_dim = L.output_dim();
-  po.hidden = options.passive_hidden;
-  po.lr = options.lr;
-  po.clip_norm = options.clip_norm;
-  po.min_std = options.min_std;
-  det.passive_ = GaussianModel(po, options.seed + 1);
+  det.passive_ = GaussianModel(ModelOptions(L, options, false), options.seed + 1);
   std::vector<int64_t> pool;
   pool.reserve(m);
   for (int64_t j = 0; j < m; ++j) {
@@ -45,10 +81,7 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
   det.stats_.passive_pool = int64_t(pool.size());
 
   // the active model starts as the passive one (warm start)
-  GaussianModelOptions ao = po;
-  ao.input_dim = L.active_input_dim();
-  ao.hidden = options.active_hidden;
-  GaussianModel active(ao, options.seed + 3);
+  GaussianModel active(ModelOptions(L, options, true), options.seed + 3);
   if (options.warm_start && options.active_hidden == options.passive_hidden) {
     active.WarmStartFrom(det.passive_, L.source_input_dim());
   }

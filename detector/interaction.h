@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,12 @@ class PairDetector {
   static Result<PairDetector> Train(const envs::EnvSpec& spec, const TransitionSet& data,
                                     const std::string& source, const std::string& target,
                                     const DetectorOptions& options);
+
+  // an untrained detector with this layout (e.g. to load published weights into)
+  static Result<PairDetector> Create(const PairLayout& layout, const DetectorOptions& options);
+  // both models' weights in one blob (passive, then active; common/nn/serialize.h format)
+  std::vector<uint8_t> WeightsBlob() const;
+  Status LoadWeights(std::span<const uint8_t> blob);
 
   const PairLayout& layout() const { return layout_; }
   const DetectorOptions& options() const { return options_; }

@@ -186,9 +186,11 @@ std::string FormatDetectTable(const nlohmann::json& r) {
     std::string mask;
     const auto& names = t["features"];
     for (size_t k = 0; k < t["mask"].size(); ++k) {
-      if (t["mask"][k].get<int>()) mask += (mask.empty() ? "" : ",") + names[k].get<std::string>();
+      if (!t["mask"][k].get<int>()) continue;
+      if (!mask.empty()) mask += ',';
+      mask += names[k].get<std::string>();
     }
-    if (mask.empty()) mask = "-";
+    if (mask.empty()) mask.push_back('-');
     auto num = [](const nlohmann::json& v) { return v.is_null() ? std::string("nan") : fmt::format("{:.3f}", v.get<double>()); };
     out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n",
                        t["target"].get<std::string>(), num(t["score"]), num(t["mg_score"]),

@@ -46,7 +46,7 @@ struct DetectorOptions {
   float eps_act = 2.0f;
   float eps_pas = 0.0f;
   float eps_si = 3.0f;          // paper: 3 to 5 (5 in its runs; our scales differ)
-  int min_interactions = 5;
+  int min_interactions = 10;    // fewer detected interactions: Sc_I = 0 (too little evidence)
   // counterfactual check: h also needs ll_act(s_a, s_b) - mean_k ll_act(s_a~k, s_b) > eps_cf,
   // with s_a~k the source of other transitions (0 draws turns the check off)
   int counterfactual_draws = 3;

@@ -222,6 +222,7 @@ int ReplayMain(int argc, char** argv) {
 
   // snapshots: one at a time, beside traffic
   joiner.threads.emplace_back([&] {
+    LowerThreadPriority();
     const auto period = std::chrono::duration<double>(options.snapshot_period_s);
     auto next = std::chrono::steady_clock::now() + period;
     while (!StopRequested()) {

@@ -1,6 +1,8 @@
 #include "replay/snapshot.h"
 
 #include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,7 +18,7 @@ namespace {
 
 constexpr char kMagic[8] = {'C', 'O', 'I', 'N', 'S', 'R', 'P', 'L'};
 constexpr size_t kSectionHeader = 24;
-constexpr int64_t kSliceBytes = 4 << 20;
+constexpr int64_t kSliceBytes = 1 << 20;  // the longest an insert or sample waits: one 1 MiB copy
 
 // a file being written: appends, hashes sections, patches headers
 class Out {
@@ -81,6 +83,8 @@ class Out {
 };
 
 }  // namespace
+
+void LowerThreadPriority() { setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 10); }
 
 nlohmann::json SnapshotConfig(const ReplayOptions& o) {
   return {{"capacity", o.capacity},

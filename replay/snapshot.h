@@ -16,8 +16,8 @@
 // with one line naming the file and the section.
 //
 // Writing without stopping traffic: the chunk descriptors, ledger and counters are copied under
-// the shard's lock (short), then chunk bytes are copied out of the arena in slices of a few
-// MiB, each slice under the lock and written to the file outside it. A chunk evicted before its
+// the shard's lock (short), then chunk bytes are copied out of the arena in slices of 1 MiB,
+// each slice under the lock and written to the file outside it. A chunk evicted before its
 // slice is reached is left out (FIFO eviction makes that a prefix of the chunks), and the
 // counts in META describe what was written. Atomic: temp file, fsync, rename, fsync of the dir.
 #pragma once
@@ -72,6 +72,9 @@ std::vector<std::string> ConfigDifferences(const nlohmann::json& snapshot, const
 // applies a snapshot's config to `o`
 void ApplySnapshotConfig(const nlohmann::json& snapshot, ReplayOptions* o);
 
+// lowers the calling thread's CPU priority (nice +10): a snapshot writer yields the CPU to
+// ingest and sampling on a busy machine
+void LowerThreadPriority();
 // writes a snapshot of `shard` (guarded by `mu`) to `path` while others keep using it
 Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, const RateLimiter& limiter,
                                           const ReplayOptions& options, uint64_t command_id,

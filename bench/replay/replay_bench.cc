@@ -181,6 +181,7 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
     std::atomic<bool> done{false};
     Result<SnapshotWriteResult> w = Errorf("not run");
     std::thread writer([&] {
+      LowerThreadPriority();  // as coins-replay's snapshot thread
       w = s.Snapshot(uint64_t(r + 1));
       done = true;
     });

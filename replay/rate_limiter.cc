@@ -74,6 +74,14 @@ bool RateLimiter::AwaitSample(int64_t k, std::function<int64_t()> size, std::chr
   return true;
 }
 
+void RateLimiter::CancelInsert(int64_t m) {
+  {
+    std::lock_guard lock(mu_);
+    c_.inserted -= std::min<uint64_t>(c_.inserted, uint64_t(m));
+  }
+  cv_.notify_all();
+}
+
 void RateLimiter::Close() {
   {
     std::lock_guard lock(mu_);

@@ -49,6 +49,8 @@ class RateLimiter {
   // non-blocking forms of the two tests
   bool CanInsert(int64_t m, int64_t size) const;
   bool CanSample(int64_t k, int64_t size) const;
+  // takes back a counted insert that was not stored (duplicate or rejected batch)
+  void CancelInsert(int64_t m);
   // tells waiters that the size changed (an insert happened elsewhere)
   void Notify() { cv_.notify_all(); }
   void Close();

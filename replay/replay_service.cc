@@ -48,30 +48,21 @@ Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, Re
 
 ReplayService::InsertResult ReplayService::Insert(const TransitionBatch& b, std::chrono::milliseconds timeout,
                                                   std::string* why) {
-  // malformed batches never reach the limiter
-  if (Status s = ValidateBatch(b, 0, false); !s.ok()) {
-    std::lock_guard lock(mu_);
-    std::string w;
-    shard_.Receive(b, &w);  // counts the rejection
-    if (why) *why = w;
-    return InsertResult::kRejected;
-  }
-  int64_t m = CountTransitions(b);
+  // the limiter counts the batch's transitions up front (flags are bounded by the IDL, so this
+  // is safe on a malformed batch) and takes them back when the shard does not store it
+  const int64_t m = CountTransitions(b);
   if (!limiter_.CanInsert(m, size_.load())) {
-    {
-      std::lock_guard lock(mu_);
-      counters_.insert_waits++;
-    }
-    if (!limiter_.AwaitInsert(m, size_.load(), timeout)) return InsertResult::kTimedOut;
-  } else if (!limiter_.AwaitInsert(m, size_.load(), std::chrono::milliseconds(0))) {
-    return InsertResult::kTimedOut;
+    std::lock_guard lock(mu_);
+    counters_.insert_waits++;
   }
+  if (!limiter_.AwaitInsert(m, size_.load(), timeout)) return InsertResult::kTimedOut;
   Shard::Outcome o;
   {
     std::lock_guard lock(mu_);
     o = shard_.Receive(b, why);
     size_ = shard_.store().transitions();
   }
+  if (o != Shard::Outcome::kStored) limiter_.CancelInsert(m);
   limiter_.Notify();
   return o == Shard::Outcome::kStored ? InsertResult::kStored
          : o == Shard::Outcome::kDuplicate ? InsertResult::kDuplicate

@@ -171,7 +171,7 @@ PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data,
       out.passive_in(k, j) = v;
       act[src + k] = v;
     }
-    float dist = 0.0f;
+    float dist = 0.0f, dist_next = 0.0f;
     const int np = int(L.positions.size());
     for (int p = 0; p < np; ++p) {
       const auto [ia, ib] = L.positions[p];
@@ -179,8 +179,12 @@ PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data,
       act[src + tfeat + p] = diff / L.relative_scale(p);
       act[src + tfeat + np + p] = (s2[L.source_offset + ia] - s[base + ib]) / L.relative_scale(p);
       dist += std::abs(diff);
+      dist_next += std::abs(s2[L.source_offset + ia] - s2[base + ib]);
     }
-    if (L.has_proximity()) out.close[j] = dist <= L.close_distance ? 1 : 0;
+    // close: near before and after the transition
+    if (L.has_proximity()) {
+      out.close[j] = dist <= L.close_distance && dist_next <= L.close_distance ? 1 : 0;
+    }
     for (int d = 0; d < L.output_dim(); ++d) {
       const int k = L.dims[d];
       out.target(d, j) = std::clamp((s2[base + k] - s[base + k]) / L.scale[d], -1.0f, 1.0f);

@@ -17,9 +17,9 @@
 //                  clipped to [-1, 1] (tanh range); q = options.delta_quantile quantile of
 //                  the non-zero |change| of that feature in the fit data
 // Modelled features are those that change somewhere in the fit data; constant ones carry no
-// evidence either way and are left out of the log-likelihoods. close = L1 distance of the shared
-// positions <= options.close_distance (always 1 when the pair shares no position or the
-// distance is <= 0). All matrices are features x samples.
+// evidence either way and are left out of the log-likelihoods. close = the L1 distance of the
+// shared positions is <= options.close_distance both in s and in s' (always 1 when the pair
+// shares no position or the distance is <= 0). All matrices are features x samples.
 #pragma once
 
 #include <cstdint>

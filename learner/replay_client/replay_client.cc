@@ -11,6 +11,8 @@ namespace coins {
 
 namespace {
 constexpr int kPending = -1;
+constexpr int kNoReply = -2;
+constexpr int kRounds = 4;
 }  // namespace
 
 Result<std::unique_ptr<ReplayClient>> ReplayClient::Create(dds::Node& node, const ReplayClientOptions& o) {
@@ -28,7 +30,7 @@ Result<std::unique_ptr<ReplayClient>> ReplayClient::Create(dds::Node& node, cons
   // correlation ids unique across client restarts
   c->next_id_ = (std::random_device{}() | (uint64_t(std::random_device{}()) << 32)) & ((uint64_t(1) << 62) - 1);
   c->update_msgs_.resize(size_t(o.shards));
-  c->slots_.resize(2 * size_t(o.shards));
+  c->slots_.resize(size_t(kRounds) * size_t(o.shards));
   return c;
 }
 
@@ -70,7 +72,7 @@ void ReplayClient::Round(const std::vector<uint32_t>& counts, std::chrono::stead
     request_.timeout_ms(uint32_t(std::max<int64_t>(0, left.count() * 3 / 4)));
     (*status)[size_t(k)] = kPending;
     if (!requests_.Write(request_)) {
-      (*status)[size_t(k)] = msg::SAMPLE_NOT_READY;
+      (*status)[size_t(k)] = kNoReply;
       (*errors)[size_t(k)] = "request not sent";
     }
   }
@@ -97,7 +99,7 @@ void ReplayClient::Round(const std::vector<uint32_t>& counts, std::chrono::stead
   }
   for (int k = 0; k < K; ++k)
     if ((*status)[size_t(k)] == kPending) {
-      (*status)[size_t(k)] = msg::SAMPLE_NOT_READY;
+      (*status)[size_t(k)] = kNoReply;
       (*errors)[size_t(k)] = "no reply within the timeout";
     }
 }
@@ -107,7 +109,6 @@ Status ReplayClient::Sample(int batch_size, rl::Batch* batch) {
   const int K = options_.shards;
   const auto deadline = std::chrono::steady_clock::now() + options_.timeout;
   used_.clear();
-  round_ = 0;
   // split in proportion to the shard sizes last seen (largest remainder); equal when unknown
   std::vector<uint32_t> counts(size_t(K), 0);
   uint64_t total = 0;
@@ -123,30 +124,47 @@ Status ReplayClient::Sample(int batch_size, rl::Batch* batch) {
   std::sort(rem.rbegin(), rem.rend());
   for (size_t i = 0; given < uint32_t(batch_size); ++i, ++given) counts[size_t(rem[i % rem.size()].second)]++;
 
-  std::vector<int> status(size_t(K), msg::SAMPLE_OK);
+  // rounds until every sample came or the deadline passed: a shard that did not answer (a
+  // lost reply, a shard still matching) is asked again; a shard that answered NOT_READY or
+  // BAD_REQUEST has its share moved to shards that answered
   std::vector<std::string> errors(static_cast<size_t>(K));
-  Round(counts, deadline, &status, &errors);
-  // a shard that failed: its share from the shards that answered, once
-  uint32_t missing = 0;
-  std::vector<int> ok;
-  for (int k = 0; k < K; ++k) {
-    if (counts[size_t(k)] > 0 && status[size_t(k)] != msg::SAMPLE_OK) missing += counts[size_t(k)];
-    if (status[size_t(k)] == msg::SAMPLE_OK && sizes_[size_t(k)] > 0) ok.push_back(k);
-  }
-  if (missing > 0 && !ok.empty()) {
-    std::vector<uint32_t> again(size_t(K), 0);
-    for (uint32_t i = 0; i < missing; ++i) again[size_t(ok[i % ok.size()])]++;
-    std::vector<int> status2(size_t(K), msg::SAMPLE_OK);
-    round_ = 1;
-    Round(again, deadline, &status2, &errors);
+  std::vector<bool> good(size_t(K), false);
+  uint32_t missing = uint32_t(batch_size);
+  const auto round_wait = std::max<std::chrono::milliseconds>(options_.timeout / 4, std::chrono::milliseconds(250));
+  for (round_ = 0; round_ < kRounds && missing > 0 && std::chrono::steady_clock::now() < deadline; ++round_) {
+    std::vector<int> status(size_t(K), msg::SAMPLE_OK);
+    Round(counts, std::min(deadline, std::chrono::steady_clock::now() + round_wait), &status, &errors);
+    uint32_t moved = 0;
+    std::vector<uint32_t> refused(size_t(K), 0);
+    for (int k = 0; k < K; ++k) {
+      uint32_t& n = counts[size_t(k)];
+      if (n == 0) continue;
+      if (status[size_t(k)] == msg::SAMPLE_OK) {
+        missing -= n;
+        n = 0;
+        good[size_t(k)] = sizes_[size_t(k)] > 0;
+      } else if (status[size_t(k)] != kNoReply) {
+        moved += n;
+        refused[size_t(k)] = n;
+        n = 0;
+      }
+    }
+    std::vector<int> targets;
     for (int k = 0; k < K; ++k)
-      if (again[size_t(k)] > 0 && status2[size_t(k)] == msg::SAMPLE_OK) missing -= again[size_t(k)];
+      if (good[size_t(k)]) targets.push_back(k);
+    if (targets.empty()) {
+      // nobody else can take the share: ask the same shards again (the limiter may open)
+      for (int k = 0; k < K; ++k) counts[size_t(k)] += refused[size_t(k)];
+      continue;
+    }
+    for (uint32_t i = 0; i < moved; ++i) counts[size_t(targets[i % targets.size()])]++;
   }
   if (missing > 0) {
     std::string why;
     for (int k = 0; k < K; ++k)
       if (!errors[size_t(k)].empty()) why += fmt::format("{}shard {}: {}", why.empty() ? "" : "; ", k, errors[size_t(k)]);
-    return Errorf("replay client: {} of {} samples missing ({})", missing, batch_size, why);
+    return Errorf("replay client: {} of {} samples missing after {} ms ({})", missing, batch_size,
+                  options_.timeout.count(), why);
   }
 
   // merge the replies into the batch's columns

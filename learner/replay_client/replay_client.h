@@ -1,9 +1,11 @@
 // ReplayClient: the learner's side of the sampling service (idl/sampling.idl) as an
 // rl::BatchSource. One Sample() call splits the batch over the K shards in proportion to their
 // sizes (as last reported in their replies; equal at first), sends one SampleRequest per shard
-// (correlation ids), and merges the replies. A shard that does not answer within the timeout,
-// or answers NOT_READY, has its share asked from the shards that did answer, once; if samples
-// are still missing, Sample() fails with a message naming the shards and why.
+// (correlation ids), and merges the replies. Up to 4 rounds within the timeout: a shard that
+// did not answer a round (lost reply, shard still matching) is asked again; a shard that
+// answered NOT_READY or BAD_REQUEST has its share asked from the shards that did answer. If
+// samples are still missing at the timeout, Sample() fails with a message naming the shards
+// and why.
 //
 // Keys: shard << 48 | the shard's global row number; UpdatePriorities / UpdateWeights route
 // them back to their shard. Observations are [state; goal] (goal appended, possibly hindsight-
@@ -79,7 +81,7 @@ class ReplayClient final : public rl::BatchSource {
   uint64_t next_id_ = 1;
   msg::SampleRequest request_;
   msg::SampleReply scratch_;
-  std::vector<msg::SampleReply> slots_;  // 2 rounds x shards
+  std::vector<msg::SampleReply> slots_;  // rounds x shards
   std::vector<size_t> used_;              // slots answered in the last call
   int round_ = 0;
   std::vector<msg::PriorityUpdate> update_msgs_;

@@ -142,5 +142,29 @@ TEST(ReplayResume, TruncatedAndBitFlippedSnapshotsAreReportedAndThePreviousOneUs
   EXPECT_EQ(shard["size"], 0);
 }
 
+TEST(ReplayResume, PeriodicSnapshotsAreWrittenAndPruned) {
+  ReplayCluster c{TempDir("replay-periodic"), TestDomain(43)};
+  c.shards_n = 1;
+  c.actors_n = 1;
+  fs::path snaps = c.dir / "snapshots";
+  c.StartShards({"--set", "replay.snapshot_dir=" + snaps.string(), "--set", "replay.snapshot_period_s=0.4", "--set",
+                 "replay.snapshot_keep=2"});
+  c.StartActors(0);
+  c.Join();
+  ASSERT_TRUE(WaitUntil([&] { return c.Stats(0).snapshots_written() >= 4; }, 30s))
+      << "snapshots written: " << c.Stats(0).snapshots_written();
+  StopAll(c.actors, 10s);
+  StopAll(c.shards, 10s);
+  auto files = Snapshots(snaps);
+  ASSERT_EQ(files.size(), 2u);  // replay.snapshot_keep
+  for (const auto& f : files) {
+    auto j = Inspect(c, f);
+    EXPECT_TRUE(j["valid"].get<bool>()) << j.dump();
+    EXPECT_GT(j["meta"]["transitions"].get<uint64_t>(), 0u);
+  }
+  auto shard = ReadJson(c.dir / "replay-0.json");
+  EXPECT_EQ(shard["snapshot_failures"], 0);
+}
+
 }  // namespace
 }  // namespace coins

@@ -62,6 +62,10 @@ class ChunkStore {
   // restores a chunk saved by a snapshot: `info` as chunk() gave it (offset, id, row_base and
   // next are assigned anew), `bytes` its info.bytes bytes. Fails on a size that does not match.
   Status InsertRaw(const ChunkInfo& info, const uint8_t* bytes);
+  // an empty store's next global chunk id and row number (restores keep sampling keys valid)
+  void SetNextIds(uint64_t id, uint64_t row) {
+    if (count_ == 0) next_id_ = id, next_row_ = row;
+  }
   // called with each chunk just before it is evicted (dropped from the ring)
   void SetEvictHook(std::function<void(const ChunkInfo&)> hook) { evict_hook_ = std::move(hook); }
   // removes the chunk of the last Insert (a batch whose stored copy failed its hash)

@@ -176,7 +176,6 @@ int ReplayMain(int argc, char** argv) {
 
   uint64_t rejected_logged = 0;
   SnapshotQueue snapshots;
-  std::atomic<bool> ingest_done{false};
   Joiner joiner;
 
   // ingest: the rate limiter may hold a batch; the DDS history then backs up to the actors
@@ -199,7 +198,6 @@ int ReplayMain(int argc, char** argv) {
     service.Close();
     while (take() > 0) {
     }
-    ingest_done = true;
   });
 
   // sampling service

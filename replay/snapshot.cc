@@ -177,6 +177,10 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
         if (i < 0) continue;  // evicted meanwhile
         const ChunkInfo& c = store.chunk(size_t(i));
         const uint8_t* b = store.bytes(size_t(i));
+        if (chunks.empty()) {
+          meta["first_id"] = c.id;
+          meta["first_row"] = c.row_base;
+        }
         slice.insert(slice.end(), b, b + c.bytes);
         chunk_hashes.push_back(HashBytes(b, size_t(c.bytes)));
         chunks.push_back({uint64_t(c.bytes), c.n_rows, c.transitions, c.n_deltas, c.actor_id, c.env_id, c.seq,

@@ -117,7 +117,9 @@ Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter
   ChunkStore& store = shard->mutable_store();
   COINS_RETURN_IF_ERROR(store.Configure(m["layout_hash"].get<uint32_t>(), m["state_dim"].get<uint32_t>(),
                                         m["action_dim"].get<uint32_t>(), m["goal_dim"].get<uint32_t>()));
-  // chunks in order; each one's rows get their saved priorities and weights
+  // chunks in order, under their old global numbers; each one's rows get their saved
+  // priorities and weights
+  store.SetNextIds(m.value("first_id", uint64_t(0)), m.value("first_row", uint64_t(0)));
   uint64_t offset = 0, row = 0;
   for (const SnapshotChunk& c : img.chunks) {
     ChunkInfo info{0, int64_t(c.bytes), uint32_t(c.rows), uint32_t(c.transitions), uint32_t(c.deltas),

@@ -71,6 +71,29 @@ TEST(Snapshot, RoundTripKeepsDataLedgerPrioritiesAndCounters) {
   // every stored chunk hashes back to the ledger's checksum
   EXPECT_EQ(after.stored.at(3).second, before.actors.at(3).checksum);
   EXPECT_EQ(after.stored.at(3).first, uint64_t(before.size));
+  // sampling keys (global row numbers) survive the restart
+  EXPECT_EQ(b->Stats(false).size, before.size);
+  {
+    msg::SampleRequest q;
+    q.schema_version(msg::SAMPLING_SCHEMA);
+    q.batch_size(64);
+    q.n_step(1);
+    q.gamma(0.5f);
+    q.skill_level(-1);
+    q.timeout_ms(100);
+    msg::SampleReply ra, rb;
+    a->Sample(q, &ra, 1s);
+    ASSERT_EQ(ra.status(), msg::SAMPLE_OK) << ra.error();
+    // the rows the first service names are the same transitions in the restored one
+    b->Update(msg::UPDATE_PRIORITY, std::vector<uint64_t>(ra.key().begin(), ra.key().begin() + 1),
+              std::vector<float>{1e9f});
+    q.strategy(msg::SAMPLE_PRIORITIZED);
+    b->Sample(q, &rb, 1s);
+    ASSERT_EQ(rb.status(), msg::SAMPLE_OK) << rb.error();
+    int same = 0;
+    for (uint32_t i = 0; i < rb.n(); ++i) same += rb.key()[i] == ra.key()[0] && rb.state()[i * 4] == ra.state()[0];
+    EXPECT_GT(same, 50);
+  }
   // the same stream continues: no duplicates, no gaps
   Fill(*b, stream, 2);
   EXPECT_EQ(b->Stats(false).gaps, 0u);

@@ -8,7 +8,8 @@
 // and why.
 //
 // Keys: shard << 48 | the shard's global row number; UpdatePriorities / UpdateWeights route
-// them back to their shard. Observations are [state; goal] (goal appended, possibly hindsight-
+// them back to their shard. A shard resumed from a snapshot keeps the row numbers it saved;
+// keys of rows that were never saved (inserted after the snapshot) may later name other rows. Observations are [state; goal] (goal appended, possibly hindsight-
 // relabelled by the shard); rewards and discounts come n-step from the shard.
 //
 // Not thread-safe: one learner thread uses a client. Create it from the thread that owns the

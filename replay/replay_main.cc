@@ -230,7 +230,9 @@ int ReplayMain(int argc, char** argv) {
       if (!asked && !due) continue;
       if (due) next = std::chrono::steady_clock::now() + period;
       auto r = service.Snapshot(command);
-      if (r.ok())
+      if (r.ok() && r->path.empty())
+        spdlog::info("snapshot skipped: nothing stored yet (command {})", command);
+      else if (r.ok())
         spdlog::info("snapshot {}: {} transitions, {} bytes in {:.3f} s (command {})", r->path, r->transitions, r->bytes,
                      r->seconds, command);
       else

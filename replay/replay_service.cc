@@ -130,6 +130,14 @@ void ReplayService::Update(uint8_t kind, std::span<const uint64_t> keys, std::sp
 Result<SnapshotWriteResult> ReplayService::Snapshot(uint64_t command_id) {
   std::lock_guard one(snapshot_mu_);
   if (options_.snapshot_dir.empty()) return Errorf("shard {}: replay.snapshot_dir is not set", shard_.id());
+  {
+    // nothing stored yet: nothing to write, and a command counts as done
+    std::lock_guard lock(mu_);
+    if (!shard_.store().configured()) {
+      counters_.last_snapshot_command = std::max(counters_.last_snapshot_command, command_id);
+      return SnapshotWriteResult{};
+    }
+  }
   std::error_code ec;
   std::filesystem::create_directories(options_.snapshot_dir, ec);
   auto path = NextSnapshotPath(options_.snapshot_dir, shard_.id());

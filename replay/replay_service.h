@@ -51,7 +51,8 @@ class ReplayService {
   void Sample(const msg::SampleRequest& req, msg::SampleReply* reply, std::chrono::milliseconds max_wait);
   // priority (kind UPDATE_PRIORITY) or weight updates; keys no longer held are ignored
   void Update(uint8_t kind, std::span<const uint64_t> keys, std::span<const float> values);
-  // writes a snapshot now (the caller's thread; traffic goes on)
+  // writes a snapshot now (the caller's thread; traffic goes on); a shard that holds nothing
+  // yet writes no file (empty path in the result)
   Result<SnapshotWriteResult> Snapshot(uint64_t command_id);
   // releases every blocked call (shutdown)
   void Close() { limiter_.Close(); }

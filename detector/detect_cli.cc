@@ -1,6 +1,10 @@
 #include "detector/detect_cli.h"
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+
+#include <fmt/format.h>
 #include <memory>
 
 #include "detector/detect_run.h"
@@ -19,6 +23,25 @@ struct CliState {
   double eps_si = -1.0;
   double close = -1.0;
 };
+
+// numbers with a short message naming the bad value (CLI11 prefixes the flag)
+CLI::Validator NumberAtLeast(double min, bool strict, bool integer) {
+  return CLI::Validator(
+      [=](std::string& in) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(in.c_str(), &end);
+        const bool parsed = end != in.c_str() && *end == '\0' && std::isfinite(v);
+        const bool whole = !integer || v == std::floor(v);
+        if (parsed && whole && (strict ? v > min : v >= min)) return "";
+        return fmt::format("must be {} {}{}, got '{}'", integer ? "an integer" : "a number",
+                           strict ? "> " : ">= ", min, in);
+      },
+      strict ? "POSITIVE" : "NONNEGATIVE");
+}
+const CLI::Validator kPositiveInt = NumberAtLeast(0, true, true);
+const CLI::Validator kNonNegativeInt = NumberAtLeast(0, false, true);
+const CLI::Validator kPositive = NumberAtLeast(0, true, false);
+const CLI::Validator kNonNegative = NumberAtLeast(0, false, false);
 
 void Fail(const Status& st) {
   std::fprintf(stderr, "error: %s\n", st.message().c_str());
@@ -66,42 +89,42 @@ void AddDetectCommand(CLI::App& app) {
                   "data policy: random, goals (scripted paddle/gripper to random targets) or a "
                   "file with one action per line")
       ->capture_default_str();
-  cmd->add_option("--steps", c->req.steps, "environment steps of data")->required()->check(CLI::PositiveNumber);
+  cmd->add_option("--steps", c->req.steps, "environment steps of data")->required()->check(kPositiveInt);
   cmd->add_option("--seed", c->req.seed, "seed of data and models")->capture_default_str();
   cmd->add_option("--targets", c->req.targets, "targets (default: every uncontrolled factor)")->delimiter(',');
   cmd->add_flag("--json", c->json, "print one JSON object");
   cmd->add_flag("--eval", c->req.eval, "false positives/negatives against the simulator's labels on fresh data");
-  cmd->add_option("--eval-steps", c->req.eval_steps, "steps of evaluation data (default: --steps)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--eval-steps", c->req.eval_steps, "steps of evaluation data (default: --steps)")->check(kNonNegativeInt);
   cmd->add_option("--holdout", c->req.holdout,
                   "fraction of the data held out of training and scored (0: score the training data)")
       ->capture_default_str()->check(CLI::Range(0.0, 0.99));
   cmd->add_flag("--granger", c->req.granger, "also run the linear Granger F-test on the same data");
   cmd->add_option("--granger-window", c->req.granger_window, "history window w of the linear test")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(kPositiveInt);
   cmd->add_option("--passive-steps", c->req.options.passive_steps, "Adam steps of the passive model")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(kPositiveInt);
   cmd->add_option("--passive-hard-steps", c->req.options.passive_hard_steps,
                   "passive steps after the active model's warm start")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(kNonNegativeInt);
   cmd->add_option("--passive-hard-lambda", c->req.options.passive_hard_lambda,
                   "up-weight of the passive model's own misses in its second phase")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(kNonNegative);
   cmd->add_option("--counterfactual-draws", c->req.options.counterfactual_draws,
                   "draws of another transition's source in the counterfactual check (0: off)")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(kNonNegativeInt);
   cmd->add_option("--active-steps", c->req.options.active_steps, "Adam steps of the active model")
-      ->capture_default_str()->check(CLI::PositiveNumber);
+      ->capture_default_str()->check(kPositiveInt);
   cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128")
-      ->delimiter(',')->check(CLI::PositiveNumber);
+      ->delimiter(',')->check(kPositiveInt);
   cmd->add_flag("--paper-sizes", c->paper_sizes, "the paper's network sizes for the pairs it names (else --hidden or 128,128)");
-  cmd->add_option("--lr", c->req.options.lr, "Adam learning rate")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--lr", c->req.options.lr, "Adam learning rate")->capture_default_str()->check(kPositive);
   cmd->add_option("--lambda", c->req.options.lambda, "active up-weight of passive-error states")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()->check(kNonNegative);
   cmd->add_option("--eps-act", c->req.options.eps_act, "active log-likelihood threshold")->capture_default_str();
   cmd->add_option("--eps-pas", c->req.options.eps_pas, "passive log-likelihood threshold")->capture_default_str();
   cmd->add_option("--eps-si", c->eps_si, "pass threshold on Sc_I (default 3)");
   cmd->add_option("--close", c->close, "proximity L1 distance (default: 7 Breakout, 0.13 pushing; 0 turns it off)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegative);
   cmd->add_flag("--no-proximity-gate", c->no_gate, "do not require proximity in the interaction test");
   cmd->add_option("--mask-rule", c->mask_rule, "relative or absolute (eq. 10 literally)")
       ->check(CLI::IsMember({"relative", "absolute"}))->capture_default_str();

@@ -191,6 +191,12 @@ TEST(DetectCli, BadFlagsAreErrorsNamingTheFlag) {
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action"}).find("--steps"), std::string::npos);
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "-3"}).find("--steps"),
             std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "abc"})
+                .find("must be an integer > 0, got 'abc'"),
+            std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "9", "--lr", "0"})
+                .find("--lr"),
+            std::string::npos);
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "10", "--mask-rule",
                     "odd"}).find("--mask-rule"), std::string::npos);
   // runtime errors (unknown env or factor) exit 1 after one "error:" line

@@ -99,6 +99,9 @@ void AddDetectCommand(CLI::App& app) {
                   "fraction of the data held out of training and scored (0: score the training data)")
       ->capture_default_str()->check(CLI::Range(0.0, 0.99));
   cmd->add_flag("--granger", c->req.granger, "also run the linear Granger F-test on the same data");
+  cmd->add_option("--screen", c->req.screen_alpha,
+                  "linear Granger screen: skip targets with p-value >= this (0: off)")
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--granger-window", c->req.granger_window, "history window w of the linear test")
       ->capture_default_str()->check(kPositiveInt);
   cmd->add_option("--passive-steps", c->req.options.passive_steps, "Adam steps of the passive model")

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -29,6 +30,7 @@ Status DetectRequest::Validate() const {
   if (steps <= 0) return Errorf("--steps must be positive, got {}", steps);
   if (eval_steps < 0) return Errorf("--eval-steps must be >= 0, got {}", eval_steps);
   if (!(holdout >= 0.0 && holdout < 1.0)) return Errorf("--holdout must be in [0, 1), got {}", holdout);
+  if (!(screen_alpha >= 0.0 && screen_alpha <= 1.0)) return Errorf("--screen must be in [0, 1], got {}", screen_alpha);
   if (granger_window < 1) return Errorf("--granger-window must be >= 1, got {}", granger_window);
   return options.Validate();
 }
@@ -105,9 +107,52 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
     report["eval_states"] = eval_data.size();
   }
 
+  // the linear Granger test on the same data (also the optional screen)
+  std::map<std::string, double> p_values;
+  if (req.granger || req.screen_alpha > 0.0) {
+    GrangerOptions go;
+    go.window = req.granger_window;
+    go.seed = req.seed;
+    auto t4 = std::chrono::steady_clock::now();
+    Result<std::vector<GrangerResult>> g = LinearGrangerTest(spec, data.value(), req.source, targets, go);
+    if (!g.ok()) return g.status();
+    report["granger_seconds"] = Seconds(t4);
+    report["granger"] = nlohmann::json::array();
+    for (const GrangerResult& r : g.value()) {
+      p_values[r.target] = r.p_value;
+      report["granger"].push_back({{"target", r.target}, {"f_stat", Num(r.f_stat)},
+                                   {"p_value", Num(r.p_value)}, {"df1", r.df1}, {"df2", r.df2},
+                                   {"feature", r.feature}, {"causes", r.causes},
+                                   {"samples", r.samples}});
+    }
+  }
   // train and score every target
   report["targets"] = nlohmann::json::array();
   for (const std::string& target : targets) {
+    // screened out by the linear test: no neural models
+    if (req.screen_alpha > 0.0 && p_values[target] >= req.screen_alpha) {
+      const envs::FactorSpec& f = spec.factors[spec.factor_index(target)];
+      nlohmann::json j = {{"target", target}, {"score", 0.0}, {"mg_score", nullptr},
+                          {"interactions", 0}, {"samples", 0}, {"features", f.feature_names},
+                          {"mask", std::vector<int>(f.features, 0)},
+                          {"mask_diff", std::vector<float>(f.features, 0.0f)},
+                          {"goal_set", nlohmann::json::array()}, {"goal_kind", "empty"},
+                          {"pass", false}, {"train_seconds", 0.0}, {"score_seconds", 0.0},
+                          {"screened", true},
+                          {"note", fmt::format("linear Granger p {:.3g} >= --screen {}",
+                                               p_values[target], req.screen_alpha)}};
+      if (req.eval) {
+        j["fp_per_state"] = nullptr;
+        j["fn_per_interaction"] = nullptr;
+        j["true_interactions"] = 0;
+        j["detected"] = 0;
+        j["false_positives"] = 0;
+        j["false_negatives"] = 0;
+        j["fn_reasons"] = nlohmann::json::object();
+      }
+      report["targets"].push_back(std::move(j));
+      continue;
+    }
     DetectorOptions opts = req.options;
     if (req.paper_sizes) {
       const DetectorOptions p = DefaultDetectorOptions(req.env, true, req.source, target);
@@ -167,23 +212,6 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
     report["targets"].push_back(std::move(j));
   }
 
-  // the linear Granger test on the same data
-  if (req.granger) {
-    GrangerOptions go;
-    go.window = req.granger_window;
-    go.seed = req.seed;
-    auto t4 = std::chrono::steady_clock::now();
-    Result<std::vector<GrangerResult>> g = LinearGrangerTest(spec, data.value(), req.source, targets, go);
-    if (!g.ok()) return g.status();
-    report["granger_seconds"] = Seconds(t4);
-    report["granger"] = nlohmann::json::array();
-    for (const GrangerResult& r : g.value()) {
-      report["granger"].push_back({{"target", r.target}, {"f_stat", Num(r.f_stat)},
-                                   {"p_value", Num(r.p_value)}, {"df1", r.df1}, {"df2", r.df2},
-                                   {"feature", r.feature}, {"causes", r.causes},
-                                   {"samples", r.samples}});
-    }
-  }
   return report;
 }
 
@@ -211,6 +239,7 @@ std::string FormatDetectTable(const nlohmann::json& r) {
                        mask, t["goal_kind"].get<std::string>(), t["goal_set"].dump());
     out += fmt::format("{:<10} train {:.1f} s, score {:.2f} s\n", "", t["train_seconds"].get<double>(),
                        t["score_seconds"].get<double>());
+    if (t.contains("note")) out += fmt::format("{:<10} note: {}\n", "", t["note"].get<std::string>());
     if (eval) {
       out += fmt::format("{:<10} eval: fp/state {}  fn/interaction {}  ({} labelled, {} detected; misses: {})\n",
                          "", t["fp_per_state"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fp_per_state"].get<double>()),

@@ -4,7 +4,8 @@
 // source -> b for every uncontrolled target b (every factor but the action, the source, Done
 // and Reward, unless targets are given), scores them on the collected data and, with eval,
 // measures detections against the simulator's labels on a fresh data set (another seed).
-// With granger, the linear Granger test runs on the same data for the same pairs.
+// With granger, the linear Granger test runs on the same data for the same pairs; with
+// screen_alpha it runs first and decides which targets get neural models ("screened": true).
 #pragma once
 
 #include <cstdint>
@@ -28,6 +29,9 @@ struct DetectRequest {
   bool eval = false;
   int64_t eval_steps = 0;            // 0: same as steps
   bool granger = false;
+  // > 0: run the linear Granger test first and skip the neural models of targets whose p-value
+  // is >= screen_alpha (a fast screen; it can drop true links, see README)
+  double screen_alpha = 0.0;
   int granger_window = 1;
   // the last holdout fraction of the data is not trained on; scores, masks and goal sets are
   // computed on it (0: train and score on all the data, as the paper does)

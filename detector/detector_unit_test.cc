@@ -229,6 +229,15 @@ TEST(DetectCli, JsonHasTheDocumentedKeys) {
   EXPECT_TRUE(t["pass"].is_boolean());
   EXPECT_EQ(t["mask"].size(), 5u);
   EXPECT_EQ(j["granger"].size(), 1u);
+
+  // the linear screen skips a target it finds unrelated (Action->Ball: p about 1)
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(RunCli({"--env", "breakout", "--source", "Action", "--targets", "Ball", "--steps",
+                    "3000", "--screen", "0.5", "--json"}),
+            "");
+  const nlohmann::json k = nlohmann::json::parse(testing::internal::GetCapturedStdout());
+  EXPECT_EQ(k["targets"][0]["screened"], true);
+  EXPECT_EQ(k["targets"][0]["pass"], false);
 }
 
 }  // namespace

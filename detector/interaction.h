@@ -1,17 +1,23 @@
 // PairDetector: the interaction detector of one (source a, target b) pair (paper sections
 // 3.2-3.4, appendix B).
 //
-// Train: fits the pair layout, trains the passive model m_pas(s_b) on samples where a and b are
-// not close (all samples when the pair has no proximity), scores every sample with it, then
-// trains the active model m_act(s_a, s_b) drawing samples in proportion to
-// w = lambda + 1 when ll_pas < 0 and close, else 1.
+// Train: fits the pair layout; trains the passive model m_pas(s_b) for passive_steps on samples
+// where a and b are not close (all samples when the pair has no proximity); copies it into the
+// active model m_act(s_a, s_b) (warm_start: zero weights on the source inputs); then trains
+// the passive model passive_hard_steps more and the active model active_steps, drawing samples
+// in proportion to w = lambda + 1 when ll_pas < 0 and close, else 1 (w = 1 everywhere for a
+// pair without positions when upweight_needs_proximity).
 // Detect: per-sample log-likelihoods and the interaction test (eq. 8)
-//   h = ll_act > eps_act  and  ll_pas < eps_pas  [and close, when proximity_gate].
+//   h = ll_act > eps_act  and  ll_pas < eps_pas  [and close, when proximity_gate]
+//       [and ll_act - mean_k ll_act(other transitions' source) > eps_cf, counterfactual_draws]
 // Score: on a data set, the MG score (eq. 7, mean ll_act - mean ll_pas), the interaction score
 // Sc_I (eq. 9, mean of ll_act - ll_pas over detected interactions; 0 with fewer than
-// min_interactions), the control mask (eq. 10) and the goal set; pass = Sc_I > eps_si.
+// min_interactions), the control mask (eq. 10, options.mask_rule) and the goal set;
+// pass = Sc_I > eps_si. Score the models on data they did not train on (RunDetect holds out
+// the tail of its data).
 // Multi-instance targets share one model pair over instances, so a class is scored as one
 // target; a transition interacts when any of its instances does.
+// A PairDetector is used by one thread at a time (the models keep workspaces).
 #pragma once
 
 #include <cstdint>

@@ -82,6 +82,9 @@ struct ReplayCluster {
     collector.reset();
     StopAll(actors, std::chrono::seconds(5));
     StopAll(shards, std::chrono::seconds(5));
+    // snapshots are large; logs and stats files stay for a failed test's reader
+    std::error_code ec;
+    std::filesystem::remove_all(dir / "snapshots", ec);
   }
 };
 

@@ -9,6 +9,13 @@ namespace coins {
 namespace {
 constexpr uint64_t kPrime = 0x100000001b3ULL;
 
+// a bijective 64-bit mixer (xor-shift / multiply), every input bit reaching every output bit
+inline uint64_t Mix64(uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
 template <typename T>
 uint64_t HashVec(const std::vector<T>& v, uint64_t h) {
   return HashBytes(v.data(), v.size() * sizeof(T), h);
@@ -25,7 +32,7 @@ inline bool SameBits(float a, float b) {
 
 uint64_t HashBytes(const void* data, size_t n, uint64_t seed) {
   // Fletcher-style sums in 8 lanes of 32-bit words (first- and second-order sums, so the order
-  // of words matters); the plain loops vectorise. The lanes are folded with FNV-1a at the end.
+  // of words matters); the plain loops vectorise. The lanes are folded through a mixer.
   constexpr int kLanes = 8;
   const auto* p = static_cast<const uint8_t*>(data);
   uint64_t s1[kLanes], s2[kLanes];
@@ -42,13 +49,15 @@ uint64_t HashBytes(const void* data, size_t n, uint64_t seed) {
       s2[l] += s1[l];
     }
   }
+  // fold through a full 64-bit mixer: a plain xor-multiply fold would let a difference that
+  // every lane shares (e.g. the seed's top bit) cancel out
   uint64_t h = 0xcbf29ce484222325ULL;
   for (int l = 0; l < kLanes; ++l) {
-    h = (h ^ s1[l]) * kPrime;
-    h = (h ^ s2[l]) * kPrime;
+    h = Mix64(h ^ s1[l]);
+    h = Mix64(h ^ s2[l]);
   }
   for (size_t i = blocks * 4 * kLanes; i < n; ++i) h = (h ^ p[i]) * kPrime;
-  return (h ^ n) * kPrime;
+  return Mix64(h ^ n);
 }
 
 uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim) {

@@ -22,7 +22,7 @@ using msg::TransitionBatch;
 // identifies an env name together with the batch dimensions
 uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim);
 
-// 64-bit checksum of bytes (Fletcher-style lane sums, folded with FNV-1a); `seed` chains
+// 64-bit checksum of bytes (Fletcher-style lane sums folded through a 64-bit mixer); `seed` chains
 // calls. Chained calls hash the same only when split at the same places, so sender and
 // receiver hash the same pieces. It detects corruption and double counting, not attacks.
 uint64_t HashBytes(const void* data, size_t n, uint64_t seed = 0xcbf29ce484222325ULL);

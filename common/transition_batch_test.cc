@@ -139,6 +139,23 @@ TEST(TransitionBatch, HashBytesSeesEveryWordAndChainsThroughEmptyPieces) {
   }
 }
 
+TEST(TransitionBatch, HashSeesEverySeedBit) {
+  // a difference in the seed reaches every lane the same way; the fold must not cancel it
+  float data[64] = {0};
+  for (int bit = 0; bit < 64; ++bit) {
+    uint64_t seed = 0x0123456789abcdefULL;
+    EXPECT_NE(HashBytes(data, sizeof(data), seed), HashBytes(data, sizeof(data), seed ^ (uint64_t(1) << bit))) << bit;
+  }
+  // and a single flipped bit anywhere in the data changes the hash
+  uint8_t bytes[200] = {0};
+  uint64_t h = HashBytes(bytes, sizeof(bytes));
+  for (int i = 0; i < 200 * 8; ++i) {
+    bytes[i / 8] ^= uint8_t(1 << (i % 8));
+    ASSERT_NE(HashBytes(bytes, sizeof(bytes)), h) << "bit " << i;
+    bytes[i / 8] ^= uint8_t(1 << (i % 8));
+  }
+}
+
 TEST(TransitionBatch, LayoutHashSeparatesEnvsAndDims) {
   EXPECT_NE(LayoutHash("breakout", 515, 1, 0), LayoutHash("breakout", 515, 1, 1));
   EXPECT_NE(LayoutHash("breakout", 515, 1, 0), LayoutHash("breakout-single", 515, 1, 0));

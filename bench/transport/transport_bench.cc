@@ -89,8 +89,10 @@ int Main(int argc, char** argv) {
     std::cerr << writer.status().message() << "\n";
     return 1;
   }
+  // every wait is bounded: a shard that dies or stops acknowledging ends the benchmark
   bool stop = false;
-  DdsBatchSink dds_sink(*writer, [&] { return stop || shard[0].Poll(); });
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.seconds * a.repeats * 4 + 60);
+  DdsBatchSink dds_sink(*writer, [&] { return stop || shard[0].Poll() || std::chrono::steady_clock::now() > deadline; });
   MemoryBatchSink memory_sink;
   // warm-up: wait for the match and touch the shard's first pages
   {
@@ -103,8 +105,13 @@ int Main(int argc, char** argv) {
     if (a.only != "transport") standalone.push_back(TimedRun(a, &memory_sink, r + 1));
     if (a.only != "standalone") transport.push_back(TimedRun(a, &dds_sink, r + 1));
   }
+  bool timed_out = std::chrono::steady_clock::now() > deadline;
   stop = true;
   StopAll(shard, std::chrono::seconds(10));
+  if (timed_out) {
+    std::cerr << "coins-bench-transport: the shard stopped acknowledging; figures are not valid\n";
+    return 1;
+  }
   std::filesystem::remove_all(dir);
 
   Figures f;

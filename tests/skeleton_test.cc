@@ -4,54 +4,15 @@
 
 #include <gtest/gtest.h>
 
-#include "common/dds/node.h"
-#include "orchestrator/status_collector.h"
-#include "tests/process_harness.h"
+#include "tests/replay/replay_cluster.h"
 
 namespace coins {
 namespace {
 
 using namespace coins::testing;
 
-struct Cluster {
-  std::filesystem::path dir;
-  int domain;
-  std::vector<ChildProcess> shards, actors;
-
-  std::vector<std::string> Common(const std::string& binary, const std::string& name, int id) {
-    return {Bin(binary), "--name", name, "--id", std::to_string(id), "--quiet-config",
-            "--set", "dds.domain=" + std::to_string(domain), "--set", "run.shards=2", "--set", "run.actors=2",
-            "--set", "replay.capacity=200000", "--set", "replay.status_period_s=0.2",
-            "--set", "actor.status_period_s=0.2", "--stats-out", (dir / (name + ".json")).string()};
-  }
-  void StartShards() {
-    for (int k = 0; k < 2; ++k) {
-      std::string name = "replay-" + std::to_string(k);
-      auto c = ChildProcess::Spawn(name, Common("coins-replay", name, k), (dir / (name + ".log")).string());
-      ASSERT_TRUE(c.ok()) << c.status().message();
-      shards.push_back(std::move(*c));
-    }
-  }
-  void StartActors(int64_t steps) {
-    for (int i = 0; i < 2; ++i) {
-      std::string name = "actor-" + std::to_string(i);
-      auto argv = Common("coins-actor", name, i);
-      argv.insert(argv.end(), {"--set", "actor.steps=" + std::to_string(steps), "--set", "actor.batch_rows=64",
-                               "--set", "actor.envs=2", "--set", "run.seed=" + std::to_string(11 + i)});
-      if (steps == 0) argv.insert(argv.end(), {"--set", "run.steps=0"});
-      auto c = ChildProcess::Spawn(name, argv, (dir / (name + ".log")).string());
-      ASSERT_TRUE(c.ok()) << c.status().message();
-      actors.push_back(std::move(*c));
-    }
-  }
-  ~Cluster() {
-    StopAll(actors, std::chrono::seconds(5));
-    StopAll(shards, std::chrono::seconds(5));
-  }
-};
-
 TEST(Skeleton, EveryTransitionSentIsStoredExactlyOnce) {
-  Cluster c{TempDir("exactly-once"), TestDomain(1)};
+  ReplayCluster c{TempDir("exactly-once"), TestDomain(1)};
   c.StartShards();
   const int64_t steps = 20000;
   c.StartActors(steps);
@@ -85,21 +46,14 @@ TEST(Skeleton, EveryTransitionSentIsStoredExactlyOnce) {
 }
 
 TEST(Skeleton, KillingOneActorLeavesTheRestExchangingData) {
-  Cluster c{TempDir("kill-actor"), TestDomain(2)};
+  ReplayCluster c{TempDir("kill-actor"), TestDomain(2)};
   c.StartShards();
   c.StartActors(0);
-  DdsOptions dds;
-  dds.domain = c.domain;
-  auto node = dds::Node::Create(dds, "skeleton-test");
-  ASSERT_TRUE(node.ok());
-  auto collector = StatusCollector::Start(**node);
-  ASSERT_TRUE(collector.ok());
+  c.Join();
 
   auto stored_from = [&](uint32_t shard, uint32_t actor) -> uint64_t {
-    StatusView v = (*collector)->Snapshot();
-    auto it = v.shards.find(shard);
-    if (it == v.shards.end()) return 0;
-    for (const auto& a : it->second.sample.actors())
+    msg::ReplayStats stats = c.Stats(shard);
+    for (const auto& a : stats.actors())
       if (a.actor_id() == actor) return a.transitions();
     return 0;
   };
@@ -116,7 +70,7 @@ TEST(Skeleton, KillingOneActorLeavesTheRestExchangingData) {
   EXPECT_GT(stored_from(1, 1), before + 1000) << "actor-1 -> replay-1 stopped flowing";
   EXPECT_EQ(stored_from(0, 0), dead_before) << "data from the killed actor kept arriving";
   for (auto* p : {&c.actors[1], &c.shards[0], &c.shards[1]}) EXPECT_FALSE(p->Poll()) << p->name() << " " << p->Describe();
-  StatusView v = (*collector)->Snapshot();
+  StatusView v = c.collector->Snapshot();
   for (const char* name : {"replay-0", "replay-1", "actor-1"}) {
     ASSERT_TRUE(v.heartbeats.count(name)) << name;
     EXPECT_LT(std::chrono::duration<double>(StatusView::Clock::now() - v.heartbeats[name].received).count(), 2.0)

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "actors/envs/env.h"
+#include "common/env_spec.h"
 #include "common/status.h"
 #include "detector/transitions.h"
 

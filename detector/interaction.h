@@ -27,7 +27,7 @@
 
 #include <Eigen/Dense>
 
-#include "actors/envs/env.h"
+#include "common/env_spec.h"
 #include "common/status.h"
 #include "detector/gaussian_model.h"
 #include "detector/goal_set.h"

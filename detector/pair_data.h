@@ -28,7 +28,7 @@
 
 #include <Eigen/Dense>
 
-#include "actors/envs/env.h"
+#include "common/env_spec.h"
 #include "common/status.h"
 #include "detector/options.h"
 #include "detector/transitions.h"

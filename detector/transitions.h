@@ -1,11 +1,11 @@
 // TransitionSet: the detector's input, plain arrays of (state, action, next state) with the
-// simulator's ground-truth interaction bits, and the data collection that fills it.
+// simulator's ground-truth interaction bits.
 //
 // Layout: column-major, features x batch like common/nn: transition t's state is
 // states[t * state_dim, (t + 1) * state_dim). Only in-episode transitions are stored (the
 // reset that follows a done/truncated step is not a transition); episode_start[t] = 1 marks
-// the first transition of an episode so history windows never cross episodes. The learner can
-// fill a TransitionSet from replay samples with Append; CollectTransitions fills it from an env.
+// the first transition of an episode so history windows never cross episodes. The learner fills a
+// TransitionSet from replay samples with Append; actors/collect.h fills one from a live env.
 #pragma once
 
 #include <cstdint>
@@ -15,7 +15,7 @@
 
 #include <Eigen/Dense>
 
-#include "actors/envs/env.h"
+#include "common/env_spec.h"
 #include "common/status.h"
 
 namespace coins::detector {
@@ -56,23 +56,6 @@ class TransitionSet {
   std::vector<uint32_t> bits_;
   std::vector<uint8_t> starts_;
 };
-
-// How data is collected. policy: "random" (uniform actions), "goals" (a scripted stand-in for
-// the learned skill with random goals: Breakout's paddle or pushing's gripper moves to a random
-// target, a new one when reached or after goal_timeout steps; gripper targets have z in the
-// lowest quarter of its range, the cube's height), or a file path holding one action
-// per line (floats separated by spaces or commas), replayed in a cycle.
-struct CollectOptions {
-  std::string policy = "random";
-  int64_t steps = 10000;
-  uint64_t seed = 1;
-  int goal_timeout = 30;
-  Status Validate() const;
-};
-
-// runs the env for options.steps steps from Reset(seed), starting a new episode after each
-// done/truncated step; errors from the env or the policy file are returned
-Result<TransitionSet> CollectTransitions(envs::Env& env, const CollectOptions& options);
 
 // index of bit "source->target" in spec.interactions, or -1 when the env does not label it
 int InteractionBit(const envs::EnvSpec& spec, const std::string& source,

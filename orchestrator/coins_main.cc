@@ -13,7 +13,7 @@
 #include <CLI/CLI.hpp>
 
 #include "actors/envs/env_cli.h"
-#include "detector/detect_cli.h"
+#include "learner/detect/detect_cli.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"

@@ -42,7 +42,7 @@ void Priorities::SetPriority(uint64_t row, double p) {
 void Priorities::EnsureWeights() {
   if (weight_) return;
   // allocated on first use: uniform and prioritised runs never pay for it
-  weight_ = std::make_unique<rl::SumTree>(slots_);
+  weight_ = std::make_unique<SumTree>(slots_);
   for (int64_t s = 0; s < slots_; ++s)
     if (is_transition_[size_t(s)]) weight_->Set(s, 1.0);
 }

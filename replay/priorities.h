@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "learner/rl/sum_tree.h"
+#include "common/sum_tree.h"
 
 namespace coins {
 
@@ -29,9 +29,9 @@ class Priorities {
   float RawWeight(uint64_t row) const { return weight_ ? float(weight_->Get(Slot(row))) : 1.0f; }
   void SetRaw(uint64_t row, float priority, float weight);
 
-  const rl::SumTree& priority_tree() const { return prio_; }
+  const SumTree& priority_tree() const { return prio_; }
   bool has_weights() const { return weight_ != nullptr; }
-  const rl::SumTree* weights() const { return weight_.get(); }
+  const SumTree* weights() const { return weight_.get(); }
   int64_t Slot(uint64_t row) const { return int64_t(row % uint64_t(slots_)); }
   double alpha() const { return alpha_; }
   double max_priority() const { return max_priority_; }
@@ -41,8 +41,8 @@ class Priorities {
   int64_t slots_;
   double alpha_;
   double max_priority_ = 1.0;  // before the exponent
-  rl::SumTree prio_;
-  std::unique_ptr<rl::SumTree> weight_;
+  SumTree prio_;
+  std::unique_ptr<SumTree> weight_;
   std::unique_ptr<uint8_t[]> is_transition_;  // per slot: 1 for transition rows held
 };
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "learner/rl/her.h"
+#include "common/hindsight.h"
 
 namespace coins {
 
@@ -51,7 +51,7 @@ bool Sampler::Draw(const ChunkStore& store, const Priorities& prio, const msg::S
     if (req.strategy() == msg::SAMPLE_UNIFORM || (req.strategy() == msg::SAMPLE_WEIGHTED && !prio.has_weights())) {
       row = first + std::uniform_int_distribution<uint64_t>(0, rows - 1)(*rng);
     } else {
-      const rl::SumTree& tree = req.strategy() == msg::SAMPLE_PRIORITIZED ? prio.priority_tree() : *prio.weights();
+      const SumTree& tree = req.strategy() == msg::SAMPLE_PRIORITIZED ? prio.priority_tree() : *prio.weights();
       if (tree.Total() <= 0) return false;
       int64_t slot = tree.Find(unit(*rng) * tree.Total());
       // slot back to its global row: rows held are a contiguous range of fewer than slots rows
@@ -126,7 +126,7 @@ Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const ms
   out->next_value().clear();
   std::span<const float> mask(req.goal_mask().data(), m);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const auto her = req.her_strategy() == msg::HER_FINAL ? rl::HerStrategy::kFinal : rl::HerStrategy::kFuture;
+  const auto her = req.her_strategy() == msg::HER_FINAL ? HerStrategy::kFinal : HerStrategy::kFuture;
 
   for (uint32_t i = 0; i < B; ++i) {
     Pos p;
@@ -177,19 +177,19 @@ Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const ms
         Pos w = start;
         walk_[size_t(len++)] = w;
         while (len < options_.max_segment_rows && Advance(store, &w)) walk_[size_t(len++)] = w;
-        auto strategy = req.her_strategy() == msg::HER_NONE ? rl::HerStrategy::kFinal : her;
-        Pos g = walk_[size_t(rl::SelectHindsightIndex(strategy, 0, 0, len, rng))];
+        auto strategy = req.her_strategy() == msg::HER_NONE ? HerStrategy::kFinal : her;
+        Pos g = walk_[size_t(SelectHindsightIndex(strategy, 0, 0, len, rng))];
         store.DecodeRow(g.chunk, g.row, goal_state_.data());
-        rl::MaskedGoal(std::span<const float>(goal_state_.data() + req.target_offset(), m), mask,
+        MaskedGoal(std::span<const float>(goal_state_.data() + req.target_offset(), m), mask,
                        std::span<float>(goal, m));
       } else {
         std::copy_n(store.goals(start.chunk) + size_t(start.row) * G, G, goal);
       }
-      rl::MaskedGoal(std::span<const float>(next_.data() + req.target_offset(), m), mask,
+      MaskedGoal(std::span<const float>(next_.data() + req.target_offset(), m), mask,
                      std::span<float>(achieved_.data(), m));
-      bool reached = rl::GoalReached(std::span<const float>(achieved_.data(), m), std::span<const float>(goal, m),
-                                     mask, req.goal_epsilon(), rl::GoalNorm::kLinf);
-      reward = rl::SkillReward(reached);
+      bool reached = GoalReached(std::span<const float>(achieved_.data(), m), std::span<const float>(goal, m),
+                                     mask, req.goal_epsilon(), GoalNorm::kLinf);
+      reward = SkillReward(reached);
       discount = (reached || done) ? 0.0f : req.gamma();
     }
     out->reward()[i] = reward;

@@ -16,8 +16,8 @@
 #include <Eigen/Dense>
 
 #include "learner/rl/batch.h"
-#include "learner/rl/her.h"
-#include "learner/rl/sum_tree.h"
+#include "common/hindsight.h"
+#include "common/sum_tree.h"
 
 namespace coins::rl {
 

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "learner/rl/memory_replay.h"
-#include "learner/rl/sum_tree.h"
+#include "common/sum_tree.h"
 
 namespace coins::rl {
 namespace {

@@ -2,6 +2,8 @@
 // continuous x, y, z goal space; Gripper->Block passes with the mask x, y.
 #include <gtest/gtest.h>
 
+#include "actors/collect.h"
+#include "actors/envs/env.h"
 #include "detector/interaction.h"
 
 namespace coins::detector {

@@ -1,8 +1,8 @@
-#include "learner/rl/sum_tree.h"
+#include "common/sum_tree.h"
 
 #include <cassert>
 
-namespace coins::rl {
+namespace coins {
 
 SumTree::SumTree(int64_t size) : size_(size) {
   assert(size > 0);
@@ -37,4 +37,4 @@ int64_t SumTree::Find(double u) const {
   return slot;
 }
 
-}  // namespace coins::rl
+}  // namespace coins

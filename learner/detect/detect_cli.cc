@@ -1,4 +1,4 @@
-#include "detector/detect_cli.h"
+#include "learner/detect/detect_cli.h"
 
 #include <cmath>
 #include <cstdio>
@@ -7,7 +7,7 @@
 #include <fmt/format.h>
 #include <memory>
 
-#include "detector/detect_run.h"
+#include "learner/detect/detect_run.h"
 
 namespace coins::detector {
 

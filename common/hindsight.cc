@@ -1,10 +1,10 @@
-#include "learner/rl/her.h"
+#include "common/hindsight.h"
 
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 
-namespace coins::rl {
+namespace coins {
 
 Result<HerStrategy> ParseHerStrategy(const std::string& name) {
   if (name == "none") return HerStrategy::kNone;
@@ -60,4 +60,4 @@ int64_t SelectHindsightIndex(HerStrategy strategy, int64_t t, int64_t begin, int
   return t;
 }
 
-}  // namespace coins::rl
+}  // namespace coins

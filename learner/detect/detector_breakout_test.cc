@@ -7,6 +7,8 @@
 #include <utility>
 
 #include "detector/granger.h"
+#include "actors/collect.h"
+#include "actors/envs/env.h"
 #include "detector/interaction.h"
 
 namespace coins::detector {

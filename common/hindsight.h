@@ -13,7 +13,7 @@
 
 #include "common/status.h"
 
-namespace coins::rl {
+namespace coins {
 
 enum class GoalNorm { kL1, kLinf };
 enum class HerStrategy {
@@ -46,4 +46,4 @@ inline float SkillReward(bool reached, float step_reward = -1.0f, float success_
 int64_t SelectHindsightIndex(HerStrategy strategy, int64_t t, int64_t begin, int64_t end,
                              std::mt19937_64* rng);
 
-}  // namespace coins::rl
+}  // namespace coins

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace coins::rl {
+namespace coins {
 
 class SumTree {
  public:
@@ -28,4 +28,4 @@ class SumTree {
   std::vector<double> nodes_;   // heap order, root at 1
 };
 
-}  // namespace coins::rl
+}  // namespace coins

@@ -1,7 +1,7 @@
 // coins-detect: the `detect` command on its own (the `coins` executable adds the same command).
 #include <CLI/CLI.hpp>
 
-#include "detector/detect_cli.h"
+#include "learner/detect/detect_cli.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"coins interaction detector"};

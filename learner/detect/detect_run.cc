@@ -1,4 +1,4 @@
-#include "detector/detect_run.h"
+#include "learner/detect/detect_run.h"
 
 #include <chrono>
 #include <cmath>
@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "actors/collect.h"
 #include "actors/envs/env.h"
 #include "detector/granger.h"
 #include "detector/interaction.h"

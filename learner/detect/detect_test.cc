@@ -1,0 +1,136 @@
+// The detector on data collected from real environments: transition sets, the weights blob,
+// and the `detect` command's flags and JSON.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include <nlohmann/json.hpp>
+
+#include "actors/collect.h"
+#include "actors/envs/env.h"
+#include "detector/interaction.h"
+#include "detector/options.h"
+#include "detector/transitions.h"
+#include "learner/detect/detect_cli.h"
+
+namespace coins::detector {
+namespace {
+
+TEST(Transitions, SliceAndEpisodeStarts) {
+  auto env = envs::MakeEnv("breakout");
+  CollectOptions co;
+  co.steps = 3000;
+  co.seed = 5;
+  Result<TransitionSet> d = CollectTransitions(**env, co);
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->size(), 3000);
+  EXPECT_TRUE(d->episode_start(0));
+  const TransitionSet s = d->Slice(100, 200);
+  EXPECT_EQ(s.size(), 100);
+  EXPECT_TRUE(s.episode_start(0));
+  EXPECT_EQ(s.state(5)[6], d->state(105)[6]);
+  EXPECT_EQ(InteractionBit((*env)->spec(), "Paddle", "Ball"), 1);
+  EXPECT_EQ(InteractionBit((*env)->spec(), "Action", "Ball"), -1);
+  co.policy = "/nonexistent/actions.txt";
+  Result<TransitionSet> bad = CollectTransitions(**env, co);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("--policy"), std::string::npos);
+}
+
+TEST(PairDetector, WeightsRoundTripThroughABlob) {
+  auto env = envs::MakeEnv("breakout");
+  CollectOptions co;
+  co.steps = 3000;
+  Result<TransitionSet> d = CollectTransitions(**env, co);
+  ASSERT_TRUE(d.ok());
+  DetectorOptions o;
+  o.passive_steps = o.passive_hard_steps = 200;
+  o.active_steps = 300;
+  Result<PairDetector> det = PairDetector::Train((*env)->spec(), *d, "Action", "Paddle", o);
+  ASSERT_TRUE(det.ok());
+  const std::vector<uint8_t> blob = det->WeightsBlob();
+  Result<PairDetector> copy = PairDetector::Create(det->layout(), o);
+  ASSERT_TRUE(copy.ok());
+  ASSERT_TRUE(copy->LoadWeights(blob).ok());
+  const PairScores a = det->Score(*d), b = copy->Score(*d);
+  EXPECT_EQ(a.interactions, b.interactions);
+  EXPECT_DOUBLE_EQ(a.score, b.score);
+  EXPECT_EQ(copy->TransitionFlags(*d), det->TransitionFlags(*d));
+  // a blob of the wrong pair is an error naming the pair
+  Result<PairDetector> other = PairDetector::Train((*env)->spec(), *d, "Action", "Ball", o);
+  ASSERT_TRUE(other.ok());
+  const Status st = copy->LoadWeights(other->WeightsBlob());
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("Action->Paddle"), std::string::npos) << st.message();
+}
+
+// parses args as `detect ...`; returns the exception message, or "" when it ran
+std::string RunCli(std::vector<std::string> args) {
+  CLI::App app{"test"};
+  AddDetectCommand(app);
+  args.insert(args.begin(), "detect");
+  std::vector<std::string> rev(args.rbegin(), args.rend());
+  try {
+    app.parse(rev);
+  } catch (const CLI::Error& e) {
+    return std::string(e.get_name()) + ": " + e.what();
+  }
+  return "";
+}
+
+TEST(DetectCli, BadFlagsAreErrorsNamingTheFlag) {
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action"}).find("--steps"), std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "-3"}).find("--steps"),
+            std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "abc"})
+                .find("must be an integer > 0, got 'abc'"),
+            std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "9", "--lr", "0"})
+                .find("--lr"),
+            std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "10", "--mask-rule",
+                    "odd"}).find("--mask-rule"), std::string::npos);
+  // runtime errors (unknown env or factor) exit 1 after one "error:" line
+  testing::internal::CaptureStderr();
+  const std::string r1 = RunCli({"--env", "nope", "--source", "Action", "--steps", "10"});
+  const std::string r2 = RunCli({"--env", "breakout", "--source", "Wall", "--steps", "10"});
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(r1.find("RuntimeError"), std::string::npos);
+  EXPECT_NE(r2.find("RuntimeError"), std::string::npos);
+  EXPECT_NE(err.find("--env"), std::string::npos);
+  EXPECT_NE(err.find("--source"), std::string::npos);
+}
+
+TEST(DetectCli, JsonHasTheDocumentedKeys) {
+  testing::internal::CaptureStdout();
+  const std::string r = RunCli({"--env", "breakout", "--source", "Action", "--targets", "Paddle",
+                                "--steps", "3000", "--passive-steps", "200",
+                                "--passive-hard-steps", "200", "--active-steps", "300", "--eval",
+                                "--eval-steps", "1000", "--granger", "--json"});
+  const std::string out = testing::internal::GetCapturedStdout();
+  ASSERT_EQ(r, "");
+  const nlohmann::json j = nlohmann::json::parse(out);
+  ASSERT_EQ(j["targets"].size(), 1u);
+  const auto& t = j["targets"][0];
+  for (const char* key : {"target", "score", "mg_score", "interactions", "mask", "goal_set",
+                          "goal_kind", "pass", "fp_per_state", "fn_per_interaction"}) {
+    EXPECT_TRUE(t.contains(key)) << key;
+  }
+  EXPECT_EQ(t["target"], "Paddle");
+  EXPECT_TRUE(t["pass"].is_boolean());
+  EXPECT_EQ(t["mask"].size(), 5u);
+  EXPECT_EQ(j["granger"].size(), 1u);
+
+  // the linear screen skips a target it finds unrelated (Action->Ball: p about 1)
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(RunCli({"--env", "breakout", "--source", "Action", "--targets", "Ball", "--steps",
+                    "3000", "--screen", "0.5", "--json"}),
+            "");
+  const nlohmann::json k = nlohmann::json::parse(testing::internal::GetCapturedStdout());
+  EXPECT_EQ(k["targets"][0]["screened"], true);
+  EXPECT_EQ(k["targets"][0]["pass"], false);
+}
+
+}  // namespace
+}  // namespace coins::detector

@@ -68,6 +68,11 @@ uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t acti
   return folded == 0 ? 1 : folded;  // 0 means "any layout" to ValidateBatch
 }
 
+void ProvenanceBlock(const TransitionBatch& b, uint64_t out[kProvenanceWords]) {
+  out[0] = b.command_seq();
+  for (size_t i = 0; i < COINS_MAX_LEVELS; ++i) out[1 + i] = i < b.policy_versions().size() ? b.policy_versions()[i] : 0;
+}
+
 uint64_t PayloadHash(const TransitionBatch& b) {
   uint64_t h = HashVec(b.first_state(), 0xcbf29ce484222325ULL);
   h = HashVec(b.delta_end(), h);
@@ -78,7 +83,10 @@ uint64_t PayloadHash(const TransitionBatch& b) {
   h = HashVec(b.reward(), h);
   h = HashVec(b.flags(), h);
   h = HashVec(b.skill_level(), h);
-  return HashVec(b.interactions(), h);
+  h = HashVec(b.interactions(), h);
+  uint64_t block[kProvenanceWords];
+  ProvenanceBlock(b, block);
+  return HashBytes(block, sizeof(block), h);
 }
 
 bool AllFinite(const float* v, size_t n) {
@@ -169,6 +177,11 @@ void BatchBuilder::Begin(TransitionBatch* batch, const BatchHeader& header, uint
   b_->interactions().clear();
 }
 
+void BatchBuilder::SetProvenance(uint64_t command_seq, std::span<const uint64_t> policy_versions) {
+  h_.command_seq = command_seq;
+  for (size_t i = 0; i < COINS_MAX_LEVELS; ++i) h_.policy_versions[i] = i < policy_versions.size() ? policy_versions[i] : 0;
+}
+
 bool BatchBuilder::full() const {
   return rows_ >= max_rows_ || b_->delta_index().size() + h_.state_dim > COINS_BATCH_MAX_DELTAS;
 }
@@ -221,6 +234,8 @@ uint64_t BatchBuilder::Finish() {
   b_->action_dim(h_.action_dim);
   b_->goal_dim(h_.goal_dim);
   b_->episode_base(h_.episode_base);
+  b_->command_seq(h_.command_seq);
+  b_->policy_versions().assign(h_.policy_versions, h_.policy_versions + COINS_MAX_LEVELS);
   uint64_t h = PayloadHash(*b_);
   b_->payload_hash(h);
   return h;

@@ -26,7 +26,11 @@ uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t acti
 // calls. Chained calls hash the same only when split at the same places, so sender and
 // receiver hash the same pieces. It detects corruption and double counting, not attacks.
 uint64_t HashBytes(const void* data, size_t n, uint64_t seed = 0xcbf29ce484222325ULL);
-// hash over the batch's sequences, one piece per sequence in IDL order
+// the batch's provenance as one fixed block: command_seq, then COINS_MAX_LEVELS policy versions
+// (zero-padded); stores keep it beside the columns
+inline constexpr size_t kProvenanceWords = 1 + COINS_MAX_LEVELS;
+void ProvenanceBlock(const TransitionBatch& b, uint64_t out[kProvenanceWords]);
+// hash over the batch's sequences, one piece per sequence in IDL order, then the provenance block
 uint64_t PayloadHash(const TransitionBatch& b);
 
 // true when none of the n floats is NaN or infinite
@@ -52,6 +56,8 @@ struct BatchHeader {
   uint32_t action_dim = 0;
   uint32_t goal_dim = 0;
   uint64_t episode_base = 0;
+  uint64_t command_seq = 0;
+  uint64_t policy_versions[COINS_MAX_LEVELS] = {};
 };
 
 class BatchBuilder {
@@ -66,6 +72,8 @@ class BatchBuilder {
   bool full() const;
   uint32_t rows() const { return rows_; }
   uint32_t max_rows() const { return max_rows_; }
+  // the command and the weights versions that produced the rows (stamped by Finish)
+  void SetProvenance(uint64_t command_seq, std::span<const uint64_t> policy_versions);
   // stamps the header and the payload hash; returns the hash
   uint64_t Finish();
 

@@ -28,7 +28,8 @@ ChunkStore::Offsets ChunkStore::Layout(uint32_t n, uint32_t d) const {
   o.flags = Align8(o.reward + int64_t(n) * 4);
   o.skill = Align8(o.flags + int64_t(n) * 2);
   o.interactions = Align8(o.skill + int64_t(n));
-  o.end = Align8(o.interactions + int64_t(n) * 4);
+  o.provenance = Align8(o.interactions + int64_t(n) * 4);
+  o.end = o.provenance + int64_t(kProvenanceWords) * 8;
   return o;
 }
 
@@ -138,6 +139,10 @@ uint64_t ChunkStore::Insert(const TransitionBatch& b, bool continues) {
   put(o.flags, b.flags());
   put(o.skill, b.skill_level());
   put(o.interactions, b.interactions());
+  uint64_t block[kProvenanceWords];
+  ProvenanceBlock(b, block);
+  std::memcpy(base + o.provenance, block, sizeof(block));
+  h = HashBytes(base + o.provenance, sizeof(block), h);
 
   ChunkInfo c{head_, o.end, n, transitions, d, b.actor_id(), b.env_id(), b.seq()};
   c.incarnation = b.incarnation();
@@ -187,6 +192,7 @@ uint64_t ChunkStore::StoredHash(size_t i) const {
   h = HashBytes(base + o.flags, size_t(n) * 2, h);
   h = HashBytes(base + o.skill, size_t(n), h);
   h = HashBytes(base + o.interactions, size_t(n) * 4, h);
+  h = HashBytes(base + o.provenance, kProvenanceWords * 8, h);
   return h;
 }
 
@@ -253,6 +259,11 @@ const float* ChunkStore::goals(size_t i) const {
 const uint8_t* ChunkStore::skill_levels(size_t i) const {
   const ChunkInfo& c = chunk(i);
   return arena_.get() + c.offset + Layout(c.n_rows, c.n_deltas).skill;
+}
+
+const uint64_t* ChunkStore::provenance(size_t i) const {
+  const ChunkInfo& c = chunk(i);
+  return reinterpret_cast<const uint64_t*>(arena_.get() + c.offset + Layout(c.n_rows, c.n_deltas).provenance);
 }
 
 void ChunkStore::DecodeRow(size_t i, uint32_t r, float* out) const {

@@ -102,6 +102,9 @@ class ChunkStore {
   const float* actions(size_t i) const;  // n_rows x action_dim
   const float* goals(size_t i) const;    // n_rows x goal_dim
   const uint8_t* skill_levels(size_t i) const;
+  // the chunk's provenance block (common/transition_batch.h): command_seq, then the weights
+  // version of each level
+  const uint64_t* provenance(size_t i) const;
   // the state of row r of chunk i (state_dim floats), decoded from first_state and deltas
   void DecodeRow(size_t i, uint32_t r, float* out) const;
   // the deltas of row r (r >= 1): features changed from row r-1 to row r
@@ -113,7 +116,8 @@ class ChunkStore {
 
  private:
   struct Offsets {  // where each column of a chunk starts, relative to the chunk
-    int64_t first_state, delta_end, delta_index, delta_value, action, goal, reward, flags, skill, interactions, end;
+    int64_t first_state, delta_end, delta_index, delta_value, action, goal, reward, flags, skill, interactions,
+        provenance, end;
   };
   Offsets Layout(uint32_t n_rows, uint32_t n_deltas) const;
   // evicts until a chunk of `bytes`, `rows` and `transitions` fits; returns its offset

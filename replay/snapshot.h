@@ -37,7 +37,7 @@
 
 namespace coins {
 
-inline constexpr uint32_t kSnapshotFormat = 1;
+inline constexpr uint32_t kSnapshotFormat = 2;  // 2: chunks carry the provenance block
 
 struct SnapshotChunk {
   uint64_t bytes, rows, transitions, deltas, actor, env, seq, incarnation, episode_base, continues;

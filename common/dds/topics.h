@@ -13,5 +13,7 @@ inline constexpr char kScoresTopic[] = "coins.status.scores";          // Intera
 inline constexpr char kSampleRequestTopic[] = "coins.sample.request";  // SampleRequest
 inline constexpr char kSampleReplyTopic[] = "coins.sample.reply";      // SampleReply
 inline constexpr char kControlTopic[] = "coins.control";               // Control
+inline constexpr char kChainCommandTopic[] = "coins.chain.command";    // ChainCommand (latched)
+inline constexpr char kLearnerStatusTopic[] = "coins.status.learner";  // LearnerStatus
 
 }  // namespace coins::dds

@@ -21,6 +21,7 @@
 #include "common/policy/level_spec.h"
 #include "detector/detector_spec.h"
 #include "idl/control.h"
+#include "idl/transition.h"
 #include "idl/status.h"
 #include "idl/weights.h"
 #include "learner/learner_options.h"

@@ -14,6 +14,7 @@
 #include "common/env_spec.h"
 #include "detector/detector_spec.h"
 #include "detector/interaction.h"
+#include "detector/pair_space.h"
 #include "idl/status.h"
 #include "learner/replay_client/sample_source.h"
 

@@ -17,8 +17,13 @@
 //   sample_rtt_ms                     one Sample() of the batch over DDS (round trip), median
 //   sample_inprocess_ms               the same in-process
 //   update_ms                         one Dqn update on a ready batch
+//   learner_thread_cpu_ms_*           CPU time of the learner's thread per update, per variant
+//                                     (with the rates, tells CPU cost from waiting and from
+//                                     the share of the CPU a busy machine leaves the learner)
 //   prefetch_ready_fraction           batches the prefetcher had ready when the learner asked
 #include <unistd.h>
+
+#include <time.h>
 
 #include <filesystem>
 #include <iostream>
@@ -173,13 +178,20 @@ void FillDdsShards(const Args& a, const DdsOptions& ddso, DdsShards* s,
 // updates done and seconds spent by the learner sampling from source for `seconds`, after
 // two untimed updates (a prefetcher's first batch, caches)
 struct Slice {
-  double updates = 0, seconds = 0;
+  double updates = 0, seconds = 0, cpu_seconds = 0;  // cpu: of the learner's thread
   double rate() const { return seconds > 0 ? updates / seconds : 0; }
+  double cpu_ms() const { return updates > 0 ? 1e3 * cpu_seconds / updates : 0; }
 };
+double ThreadCpuSeconds() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
 void Train(rl::Dqn* dqn, rl::BatchSource* source, double seconds, Slice* total) {
   for (int i = 0; i < 2; ++i)
     if (auto r = dqn->Train(source); !r.ok()) Fail(r.status().message());
   auto t0 = Clock::now();
+  const double cpu0 = ThreadCpuSeconds();
   int64_t n = 0;
   while (Since(t0) < seconds) {
     if (auto r = dqn->Train(source); !r.ok()) Fail(r.status().message());
@@ -187,6 +199,7 @@ void Train(rl::Dqn* dqn, rl::BatchSource* source, double seconds, Slice* total) 
   }
   total->updates += double(n);
   total->seconds += Since(t0);
+  total->cpu_seconds += ThreadCpuSeconds() - cpu0;
 }
 
 // median milliseconds of one Sample() of the batch
@@ -212,6 +225,7 @@ double UpdateMs(rl::Dqn* dqn, SampleSource* source, const SampleSpec& spec, int 
 
 struct Rates {
   std::vector<double> local, dds, sync, local_pf, ratio, sync_ratio, rtt, local_ms, update_ms, ready;
+  std::vector<double> cpu_local, cpu_dds, cpu_sync, cpu_local_pf;
 };
 
 // one repeat: the variants take turns in short slices (so that load from other processes on a
@@ -242,6 +256,10 @@ void Repeat(const Args& a, const SampleSpec& spec, const rl::DqnOptions& net, In
   }
   r->local.push_back(l.rate());
   r->local_pf.push_back(lp.rate());
+  r->cpu_local.push_back(l.cpu_ms());
+  r->cpu_dds.push_back(d.cpu_ms());
+  r->cpu_sync.push_back(s.cpu_ms());
+  r->cpu_local_pf.push_back(lp.cpu_ms());
   r->dds.push_back(d.rate());
   r->sync.push_back(s.rate());
   r->ratio.push_back(d.rate() / l.rate());
@@ -317,6 +335,10 @@ int Main(int argc, char** argv) {
   f.AddMedian("sample_rtt_ms", r.rtt, "ms");
   f.AddMedian("sample_inprocess_ms", r.local_ms, "ms");
   f.AddMedian("update_ms", r.update_ms, "ms");
+  f.AddMedian("learner_thread_cpu_ms_inprocess", r.cpu_local, "ms/update");
+  f.AddMedian("learner_thread_cpu_ms_dds", r.cpu_dds, "ms/update");
+  f.AddMedian("learner_thread_cpu_ms_dds_sync", r.cpu_sync, "ms/update");
+  f.AddMedian("learner_thread_cpu_ms_inprocess_prefetch", r.cpu_local_pf, "ms/update");
   f.AddMedian("prefetch_ready_fraction", r.ready, "ratio");
   client->reset();
   f.Print(a.json);

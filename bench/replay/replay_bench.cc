@@ -169,7 +169,10 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
     ResumeReport r0;
     auto reopened = ReplayService::Open(0, o, &r0);
     if (!reopened.ok() || r0.transitions == 0) {
-      std::cerr << "coins-bench-replay: resume failed\n";
+      std::cerr << "coins-bench-replay: resume failed: "
+                << (reopened.ok() ? (r0.corrupt.empty() ? std::string("no transitions") : r0.corrupt.front())
+                                  : reopened.status().message())
+                << "\n";
       std::exit(1);
     }
     resume.push_back(Since(img_t0));

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <regex>
 
 #include "tests/process_harness.h"
@@ -67,6 +68,12 @@ TEST(Run, MonitorSeesEveryProcess) {
   auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + cmd}, (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   run.push_back(std::move(*child));
+  // on a loaded machine the processes take a while to start: watch once the shard listens
+  WaitUntil([&] {
+    std::ifstream log(dir / "run" / "logs" / "replay-0.log");
+    std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+    return text.find("listening on partition") != std::string::npos;
+  }, std::chrono::seconds(30));
   auto r = RunCommand(Bin("coins") + " monitor --json --seconds 4 --domain " + std::to_string(domain));
   StopAll(run, std::chrono::seconds(15));
   ASSERT_EQ(r.code, 0) << r.output;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "common/hindsight.h"
 #include "common/transition_batch.h"
@@ -12,9 +13,12 @@ namespace {
 constexpr uint16_t kEnds = msg::ROW_DONE | msg::ROW_TRUNCATED | msg::ROW_SKILL_TERMINATED | msg::ROW_GOAL_END;
 constexpr uint16_t kTerminal = msg::ROW_DONE | msg::ROW_SKILL_TERMINATED;
 
-bool LevelSelected(const msg::SampleRequest& req, uint8_t level) {
+// reads the row's level only when the request selects by level (one cache line less)
+bool LevelSelected(const msg::SampleRequest& req, const ChunkStore& store, size_t c, uint32_t r) {
+  if (req.level_mask() == 0 && req.skill_level() < 0) return true;
+  const uint8_t level = store.skill_levels(c)[r];
   if (req.level_mask() != 0) return level < 32 && ((req.level_mask() >> level) & 1u) != 0;
-  return req.skill_level() < 0 || uint32_t(level) == uint32_t(req.skill_level());
+  return uint32_t(level) == uint32_t(req.skill_level());
 }
 
 uint32_t FeatureDim(const msg::SampleRequest& req, uint32_t state_dim) {
@@ -110,6 +114,7 @@ Status Sampler::Prepare(const ChunkStore& store, const msg::SampleRequest& req, 
   achieved_.resize(std::max<uint32_t>(p.mask_size, 1));
   walk_.resize(size_t(options_.max_segment_rows));
   probs_.resize(p.batch);
+  drawn_.resize(p.batch);
   out->n(p.batch);
   out->state_dim(p.state_dim);
   out->action_dim(p.action_dim);
@@ -152,7 +157,7 @@ bool Sampler::Draw(const ChunkStore& store, const Priorities& prio, const msg::S
     size_t c = store.ChunkOfRow(row);
     uint32_t r = uint32_t(row - store.chunk(c).row_base);
     if (store.flags(c)[r] & msg::ROW_SEGMENT_START) continue;
-    if (!LevelSelected(req, store.skill_levels(c)[r])) continue;
+    if (!LevelSelected(req, store, c, r)) continue;
     *pos = {uint32_t(c), r};
     return true;
   }
@@ -185,6 +190,17 @@ void Sampler::ApplyRow(const ChunkStore& store, Pos p, float* state) {
   ApplyDeltas(index, value, n, state);
 }
 
+void Sampler::Prefetch(const ChunkStore& store, Pos p) const {
+  // the lines SampleOne reads first: the chunk's first state, the row's columns, provenance
+  const uint8_t* chunk = store.bytes(p.chunk);
+  for (int line = 0; line < 4; ++line) __builtin_prefetch(chunk + 64 * line);
+  __builtin_prefetch(store.actions(p.chunk) + size_t(p.row) * plan_.action_dim);
+  __builtin_prefetch(store.interactions(p.chunk) + p.row);
+  __builtin_prefetch(store.rewards(p.chunk) + p.row);
+  __builtin_prefetch(store.skill_levels(p.chunk) + p.row);
+  __builtin_prefetch(store.provenance(p.chunk));
+}
+
 void Sampler::RowColumns(const ChunkStore& store, Pos p, uint32_t i, msg::SampleReply* out) const {
   const uint32_t A = plan_.action_dim;
   out->key()[i] = store.chunk(p.chunk).row_base + p.row;
@@ -207,15 +223,31 @@ void Sampler::Gather(const msg::SampleRequest& req, const float* full, float* ou
 }
 
 void Sampler::NextDeltas(const msg::SampleRequest& req, uint32_t i, msg::SampleReply* out) const {
-  const bool all = req.features().empty();
-  for (uint32_t j = 0; j < plan_.feature_dim; ++j) {
-    const uint32_t s = all ? j : req.features()[j];
-    if (next_[s] != state_[s]) {
-      out->next_index().push_back(uint16_t(j));
-      out->next_value().push_back(next_[s]);
+  auto& index = out->next_index();
+  auto& value = out->next_value();
+  const float* next = next_.data();
+  const float* state = state_.data();
+  const uint32_t F = plan_.feature_dim;
+  if (req.features().empty()) {
+    // a step changes few features: skip 16-feature blocks that are bitwise unchanged
+    for (uint32_t block = 0; block < F; block += 16) {
+      const uint32_t end = std::min(F, block + 16);
+      if (std::memcmp(next + block, state + block, (end - block) * sizeof(float)) == 0) continue;
+      for (uint32_t j = block; j < end; ++j)
+        if (next[j] != state[j]) {
+          index.push_back(uint16_t(j));
+          value.push_back(next[j]);
+        }
     }
+  } else {
+    const uint16_t* features = req.features().data();
+    for (uint32_t j = 0; j < F; ++j)
+      if (next[features[j]] != state[features[j]]) {
+        index.push_back(uint16_t(j));
+        value.push_back(next[features[j]]);
+      }
   }
-  out->next_end()[i] = uint32_t(out->next_index().size());
+  out->next_end()[i] = uint32_t(index.size());
 }
 
 void Sampler::ChooseGoal(const ChunkStore& store, const msg::SampleRequest& req, Pos start, float* goal,
@@ -281,7 +313,7 @@ void Sampler::SampleOne(const ChunkStore& store, const msg::SampleRequest& req, 
   RowColumns(store, p, i, out);
   // the state before the step, then the walk applies deltas from there
   store.DecodeRow(p.chunk, p.row - 1, state_.data());
-  std::copy(state_.begin(), state_.end(), next_.begin());
+  std::copy_n(state_.data(), plan_.state_dim, next_.data());
   Gather(req, state_.data(), out->state().data() + size_t(i) * plan_.feature_dim);
   float* goal = out->goal().data() + size_t(i) * plan_.goal_dim;
   if (plan_.goal_conditioned) {
@@ -311,24 +343,28 @@ void Sampler::ImportanceWeights(const ChunkStore& store, const msg::SampleReques
 Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
                        msg::SampleReply* out, std::mt19937_64* rng, const LevelIndex* levels) {
   COINS_RETURN_IF_ERROR(Prepare(store, req, out));
+  // every row first, its memory fetched ahead, then the samples: the cache misses of the
+  // draws overlap instead of stalling one sample at a time
   const bool indexed = levels && req.level_mask() != 0 && req.strategy() == msg::SAMPLE_UNIFORM;
   for (uint32_t i = 0; i < plan_.batch; ++i) {
-    Pos p;
-    size_t chunk = 0;
-    uint32_t row = 0;
-    const bool drawn = indexed ? levels->Draw(store, req.level_mask(), rng, &chunk, &row)
-                               : Draw(store, prio, req, rng, &p, &probs_[i]);
+    bool drawn = false;
     if (indexed) {
-      p = {uint32_t(chunk), row};
+      size_t chunk = 0;
+      uint32_t row = 0;
+      drawn = levels->Draw(store, req.level_mask(), rng, &chunk, &row);
+      drawn_[i] = {uint32_t(chunk), row};
       probs_[i] = 1.0;
+    } else {
+      drawn = Draw(store, prio, req, rng, &drawn_[i], &probs_[i]);
     }
     if (!drawn) {
       if (req.level_mask() != 0) return Errorf("no transitions of level_mask {:#x} found", req.level_mask());
       if (req.skill_level() >= 0) return Errorf("no transitions of skill level {} found", req.skill_level());
       return Errorf("no transitions found");
     }
-    SampleOne(store, req, p, i, out, rng);
+    Prefetch(store, drawn_[i]);
   }
+  for (uint32_t i = 0; i < plan_.batch; ++i) SampleOne(store, req, drawn_[i], i, out, rng);
   ImportanceWeights(store, req, out);
   return Status::Ok();
 }

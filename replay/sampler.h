@@ -95,6 +95,8 @@ class Sampler {
   // draws one transition row of a selected level; false when redraws ran out
   bool Draw(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req, std::mt19937_64* rng,
             Pos* pos, double* prob);
+  // asks the cache for the memory SampleOne will read at row p
+  void Prefetch(const ChunkStore& store, Pos p) const;
   // fills sample i of the reply from the transition at row p
   void SampleOne(const ChunkStore& store, const msg::SampleRequest& req, Pos p, uint32_t i, msg::SampleReply* reply,
                  std::mt19937_64* rng);
@@ -121,7 +123,7 @@ class Sampler {
   SamplerOptions options_;
   Plan plan_;
   std::vector<float> state_, next_, goal_state_, achieved_;
-  std::vector<Pos> walk_;
+  std::vector<Pos> walk_, drawn_;
   std::vector<double> probs_;
 };
 

@@ -37,7 +37,8 @@ msg::SampleRequest Request(uint32_t batch, uint8_t strategy = msg::SAMPLE_UNIFOR
 // the next state of sample i, decoded from the reply's deltas
 std::vector<float> NextState(const msg::SampleReply& r, uint32_t i) {
   std::vector<float> s(r.state().begin() + i * r.state_dim(), r.state().begin() + (i + 1) * r.state_dim());
-  for (uint32_t k = i ? r.next_end()[i - 1] : 0; k < r.next_end()[i]; ++k) s[r.next_index()[k]] = r.next_value()[k];
+  const uint32_t begin = i ? r.next_end()[i - 1] : 0;
+  ApplyDeltas(r.next_index().data() + begin, r.next_value().data() + begin, r.next_end()[i] - begin, s.data());
   return s;
 }
 

@@ -22,6 +22,7 @@
 #include <spdlog/spdlog.h>
 
 #include "actors/actor.h"
+#include "bench/breakout_batches.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "common/figures.h"
@@ -47,39 +48,6 @@ struct Args {
 };
 
 double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-// keeps copies of the batches an actor publishes
-class CaptureSink final : public BatchSink {
- public:
-  explicit CaptureSink(size_t max) : max_(max) {}
-  msg::TransitionBatch* Acquire() override { return new msg::TransitionBatch(); }
-  bool Publish(msg::TransitionBatch* b) override {
-    if (full()) delete b;
-    else batches.emplace_back(b);
-    return true;
-  }
-  void Release(msg::TransitionBatch* b) override { delete b; }
-  bool Flush(std::chrono::milliseconds) override { return true; }
-  uint64_t retries() const override { return 0; }
-  bool full() const { return batches.size() >= max_; }
-  std::vector<std::unique_ptr<msg::TransitionBatch>> batches;
-
- private:
-  size_t max_;
-};
-
-std::vector<std::unique_ptr<msg::TransitionBatch>> BreakoutBatches(size_t n) {
-  CaptureSink sink(n);
-  ActorOptions o;
-  o.batch_rows = 256;
-  auto actor = Actor::Create("breakout", o, 0, 1, &sink);
-  if (!actor.ok()) {
-    std::cerr << "coins-bench-replay: " << actor.status().message() << "\n";
-    std::exit(2);
-  }
-  (*actor)->Run(0, [&] { return sink.full(); }, [](const ActorCounters&) {}, std::chrono::hours(1));
-  return std::move(sink.batches);
-}
 
 // the transitions/s one shard process stores from `publishers` participants over SHM
 double InsertRate(const Args& a, const DdsOptions& ddso, StatusCollector& collector,
@@ -201,7 +169,10 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
     ResumeReport r0;
     auto reopened = ReplayService::Open(0, o, &r0);
     if (!reopened.ok() || r0.transitions == 0) {
-      std::cerr << "coins-bench-replay: resume failed\n";
+      std::cerr << "coins-bench-replay: resume failed: "
+                << (reopened.ok() ? (r0.corrupt.empty() ? std::string("no transitions") : r0.corrupt.front())
+                                  : reopened.status().message())
+                << "\n";
       std::exit(1);
     }
     resume.push_back(Since(img_t0));
@@ -226,7 +197,7 @@ int Main(int argc, char** argv) {
   app.add_flag("--json", a.json, "print one JSON object");
   CLI11_PARSE(app, argc, argv);
   SetupLogging("bench", "warn");
-  auto batches = BreakoutBatches(400);
+  auto batches = bench::BreakoutBatches(400);
   Figures f;
 
   // one shard process on a private domain

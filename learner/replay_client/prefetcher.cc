@@ -13,6 +13,7 @@ constexpr auto kIdlePoll = std::chrono::milliseconds(100);
 Status PrefetchOptions::Validate() const {
   if (depth < 1 || depth > 2) return Errorf("prefetch: depth {} not in [1, 2]", depth);
   if (wait.count() <= 0) return Errorf("prefetch: wait {} ms must be positive", wait.count());
+  if (flush_period.count() < 0) return Errorf("prefetch: flush_period {} ms must not be negative", flush_period.count());
   return Status::Ok();
 }
 
@@ -60,17 +61,20 @@ void PrefetchingSource::SendUpdates() {
 void PrefetchingSource::Run() {
   std::unique_lock lock(mu_);
   for (;;) {
-    const bool room = have_spec_ && ready_.size() < size_t(options_.depth);
-    if (stop_ || (!room && queued_.empty())) {
-      if (stop_ && queued_.empty()) return;
-      if (!stop_) {
-        worker_cv_.wait_for(lock, kIdlePoll);
-        continue;
-      }
+    const auto now = Clock::now();
+    const bool room = have_spec_ && !stop_ && ready_.size() < size_t(options_.depth);
+    const bool flush = !queued_.empty() && (stop_ || queued_.keys() >= options_.flush_keys ||
+                                            now >= queued_since_ + options_.flush_period);
+    if (!room && !flush) {
+      if (stop_) return;
+      auto wake = now + kIdlePoll;
+      if (!queued_.empty()) wake = std::min(wake, queued_since_ + options_.flush_period);
+      worker_cv_.wait_until(lock, wake);
+      continue;
     }
-    // take the queued updates and, when there is room, what to sample
-    std::swap(queued_, sending_);
-    std::unique_ptr<Item> item = room && !stop_ ? TakeFree() : nullptr;
+    // take the updates that are due and, when there is room, what to sample
+    if (flush) std::swap(queued_, sending_);
+    std::unique_ptr<Item> item = room ? TakeFree() : nullptr;
     const uint64_t generation = generation_;
     const int batch = batch_;
     if (item && thread_generation_ != generation) {
@@ -130,24 +134,28 @@ Status PrefetchingSource::Sample(const SampleSpec& spec, int batch, SampleColumn
   return status;
 }
 
-void PrefetchingSource::UpdatePriorities(std::span<const uint64_t> keys, std::span<const float> priorities) {
-  {
-    std::lock_guard lock(mu_);
-    const size_t n = std::min(keys.size(), priorities.size());
-    queued_.priority_keys.insert(queued_.priority_keys.end(), keys.begin(), keys.begin() + n);
-    queued_.priorities.insert(queued_.priorities.end(), priorities.begin(), priorities.begin() + n);
+void PrefetchingSource::Queue(std::span<const uint64_t> keys, std::span<const float> values,
+                              std::vector<uint64_t>* to_keys, std::vector<float>* to_values) {
+  if (queued_.empty()) {
+    // the thread's next wake-up comes from the oldest update
+    queued_since_ = Clock::now();
+    worker_cv_.notify_all();
   }
-  worker_cv_.notify_all();
+  const size_t n = std::min(keys.size(), values.size());
+  to_keys->insert(to_keys->end(), keys.begin(), keys.begin() + ptrdiff_t(n));
+  to_values->insert(to_values->end(), values.begin(), values.begin() + ptrdiff_t(n));
+}
+
+void PrefetchingSource::UpdatePriorities(std::span<const uint64_t> keys, std::span<const float> priorities) {
+  std::lock_guard lock(mu_);
+  Queue(keys, priorities, &queued_.priority_keys, &queued_.priorities);
+  if (queued_.keys() >= options_.flush_keys) worker_cv_.notify_all();
 }
 
 void PrefetchingSource::UpdateWeights(std::span<const uint64_t> keys, std::span<const float> weights) {
-  {
-    std::lock_guard lock(mu_);
-    const size_t n = std::min(keys.size(), weights.size());
-    queued_.weight_keys.insert(queued_.weight_keys.end(), keys.begin(), keys.begin() + n);
-    queued_.weights.insert(queued_.weights.end(), weights.begin(), weights.begin() + n);
-  }
-  worker_cv_.notify_all();
+  std::lock_guard lock(mu_);
+  Queue(keys, weights, &queued_.weight_keys, &queued_.weights);
+  if (queued_.keys() >= options_.flush_keys) worker_cv_.notify_all();
 }
 
 PrefetchStats PrefetchingSource::stats() const {

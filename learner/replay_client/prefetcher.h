@@ -8,7 +8,9 @@
 // older than the caller's newest priorities, as in Ape-X / Reverb style prefetching.
 //
 // The wrapped source is used from the background thread only, from Create until destruction:
-// UpdatePriorities / UpdateWeights are queued and the thread sends them before its next sample.
+// UpdatePriorities / UpdateWeights are queued and the thread sends them in groups (once
+// flush_keys are queued or the oldest has waited flush_period; all of them at shutdown), so a
+// learner's per-update priorities cost one message per shard every few updates.
 // A sample that fails is delivered in order as the error of one Sample() call; the thread then
 // tries again. Every wait is bounded: Sample() waits at most options.wait; the destructor stops
 // the thread and joins it (at most the wrapped source's own timeout for a call in flight).
@@ -30,6 +32,8 @@ namespace coins {
 struct PrefetchOptions {
   int depth = 1;                           // batches kept ready: 1 or 2
   std::chrono::milliseconds wait{10000};   // the longest one Sample() call waits for a batch
+  size_t flush_keys = 512;                 // updates are sent once this many keys are queued,
+  std::chrono::milliseconds flush_period{20};  // or when the oldest has waited this long
   Status Validate() const;
 };
 
@@ -63,6 +67,7 @@ class PrefetchingSource final : public SampleSource {
     std::vector<uint64_t> priority_keys, weight_keys;
     std::vector<float> priorities, weights;
     bool empty() const { return priority_keys.empty() && weight_keys.empty(); }
+    size_t keys() const { return priority_keys.size() + weight_keys.size(); }
     void clear();
   };
   PrefetchingSource(SampleSource* source, PrefetchOptions options);
@@ -71,6 +76,9 @@ class PrefetchingSource final : public SampleSource {
   void SendUpdates();
   // under mu_: a pooled item for the next sample
   std::unique_ptr<Item> TakeFree();
+  // under mu_: appends to the queued updates
+  void Queue(std::span<const uint64_t> keys, std::span<const float> values, std::vector<uint64_t>* to_keys,
+             std::vector<float>* to_values);
 
   SampleSource* source_;
   PrefetchOptions options_;
@@ -87,6 +95,7 @@ class PrefetchingSource final : public SampleSource {
   std::deque<std::unique_ptr<Item>> ready_;
   std::vector<std::unique_ptr<Item>> free_;
   Updates queued_;   // guarded by mu_
+  std::chrono::steady_clock::time_point queued_since_;  // when the oldest queued update came
   Updates sending_;  // the thread's
   PrefetchStats stats_;
   std::thread thread_;

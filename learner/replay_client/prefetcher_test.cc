@@ -136,6 +136,26 @@ TEST(Prefetcher, UpdatesGoThroughTheBackgroundThread) {
   EXPECT_EQ(src.weighted, 6u);
 }
 
+TEST(Prefetcher, UpdatesAreSentInGroups) {
+  ScriptedSource src;
+  auto p = Make(&src, {.flush_keys = 6, .flush_period = 10s});
+  const uint64_t keys[] = {1, 2, 3};
+  const float values[] = {1, 2, 3};
+  p->UpdatePriorities(keys, values);
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(src.updates(), 0u);  // neither enough keys nor old enough
+  p->UpdatePriorities(keys, values);
+  auto end = std::chrono::steady_clock::now() + 2s;
+  while (src.updates() < 6 && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(1ms);
+  EXPECT_EQ(src.updates(), 6u);
+  // by age
+  auto q = Make(&src, {.flush_keys = 1000, .flush_period = 30ms});
+  q->UpdatePriorities(keys, values);
+  end = std::chrono::steady_clock::now() + 2s;
+  while (src.updates() < 9 && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(1ms);
+  EXPECT_EQ(src.updates(), 9u);
+}
+
 TEST(Prefetcher, OptionsAreChecked) {
   ScriptedSource src;
   auto p = PrefetchingSource::Create(&src, {.depth = 3});

@@ -18,9 +18,12 @@ constexpr int kRounds = 4;
 Result<std::unique_ptr<ReplayClient>> ReplayClient::Create(dds::Node& node, const ReplayClientOptions& o) {
   if (o.shards < 1) return Errorf("replay client: shards {} must be at least 1", o.shards);
   std::unique_ptr<ReplayClient> c(new ReplayClient(o));
-  auto req = node.MakeWriter<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingWriterQos(64));
+  // requests and updates are small: written synchronously, they skip the async writer's thread
+  auto small = dds::SamplingWriterQos(64);
+  small.publish_mode().kind = dds::fdds::SYNCHRONOUS_PUBLISH_MODE;
+  auto req = node.MakeWriter<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, small);
   auto rep = node.MakeReader<msg::SampleReplyPubSubType>(dds::kSampleReplyTopic, dds::SamplingReaderQos(64));
-  auto upd = node.MakeWriter<msg::PriorityUpdatePubSubType>(dds::kPriorityUpdateTopic, dds::SamplingWriterQos(64));
+  auto upd = node.MakeWriter<msg::PriorityUpdatePubSubType>(dds::kPriorityUpdateTopic, small);
   if (!req.ok()) return req.status();
   if (!rep.ok()) return rep.status();
   if (!upd.ok()) return upd.status();

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "common/checkpoint.h"
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
@@ -140,13 +141,18 @@ int ReplayMain(int argc, char** argv) {
 
   // resume before joining DDS: a shard that is not ready does not take data
   ResumeReport resume;
-  auto service_or = ReplayService::Open(uint32_t(id), options, &resume);
+  // --resume-epoch N: the snapshot of checkpoint epoch N (coins run --resume)
+  const uint64_t resume_command = main.resume_epoch() >= 0 ? CheckpointCommandId(uint64_t(main.resume_epoch())) : 0;
+  auto service_or = ReplayService::Open(uint32_t(id), options, &resume, resume_command);
   for (const auto& c : resume.corrupt) spdlog::warn("skipped snapshot: {}", c);
   if (!service_or.ok()) {
     spdlog::error("{}", service_or.status().message());
     return 1;
   }
   ReplayService& service = **service_or;
+  if (resume_command != 0 && resume.snapshot.empty())
+    spdlog::warn("no snapshot of epoch {} in '{}' ({} of other commands): starting empty (a shard that held "
+                 "nothing at the cut writes none)", main.resume_epoch(), options.snapshot_dir, resume.other_command.size());
   if (!resume.snapshot.empty()) {
     spdlog::info("resumed {} transitions from {} in {:.3f} s", resume.transitions, resume.snapshot, resume.seconds);
     for (const auto& c : resume.config_changes)
@@ -255,7 +261,8 @@ int ReplayMain(int argc, char** argv) {
     control->TakeAll(cmd, [&](const msg::Control& c, const auto&) {
       bool mine = c.target() == "all" || c.target() == "replay" || c.target() == main.name();
       if (!mine || !commands_seen.insert(c.command_id()).second) return;
-      if (c.command() == msg::CONTROL_SNAPSHOT) snapshots.Push(c.command_id());
+      // a checkpoint epoch's snapshot is a snapshot stamped with the epoch's command id
+      if (c.command() == msg::CONTROL_SNAPSHOT || c.command() == msg::CONTROL_CHECKPOINT) snapshots.Push(c.command_id());
       if (c.command() == msg::CONTROL_STOP) RequestStop();
     });
     auto now = std::chrono::steady_clock::now();

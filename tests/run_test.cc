@@ -36,7 +36,8 @@ TEST(Run, ReachesItsStepBudgetAndStopsCleanly) {
 
 TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
   auto dir = TempDir("run-death");
-  std::string cmd = Bin("coins") + " run --steps 0 --actors 1 --shards 1" + RunFlags(dir / "run", TestDomain(4));
+  std::string cmd = Bin("coins") + " run --steps 0 --actors 1 --shards 1 --set run.max_restarts=0" +
+                    RunFlags(dir / "run", TestDomain(4));
   // kill the shard once it is up; coins run must notice, say which and how, and exit non-zero
   // ([c] keeps the patterns from matching the shell that runs pgrep itself)
   std::thread killer([&] {
@@ -49,7 +50,7 @@ TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
   killer.join();
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_NE(r.output.find("replay-0 (pid"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("was killed by signal 9 (Killed)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("was killed by signal 9 (Killed); restarts exhausted (0/0)"), std::string::npos) << r.output;
   // nothing of the run is left behind
   EXPECT_NE(RunCommand("pgrep -f '[c]oins-actor.*" + (dir / "run").string() + "'").code, 0);
 }
@@ -74,7 +75,9 @@ TEST(Run, MonitorSeesEveryProcess) {
   EXPECT_GT(j["actors"][0]["steps"].get<uint64_t>(), 0u);
   ASSERT_EQ(j["shards"].size(), 1u);
   EXPECT_GT(j["shards"][0]["inserted_transitions"].get<uint64_t>(), 0u);
-  EXPECT_EQ(j["chain"]["phase"], "collecting");
+  // 4 s of random actions pass the first detect point: the chain is collecting or detecting Action
+  EXPECT_TRUE(j["chain"]["phase"] == "collecting" || j["chain"]["phase"] == "detecting") << j["chain"];
+  EXPECT_EQ(j["chain"]["source"], "Action");
   // coins run stopped on SIGTERM like on Ctrl-C: exit 0
   EXPECT_TRUE(run[0].succeeded()) << run[0].Describe();
 }

@@ -52,7 +52,7 @@ TEST(Actor, BatchesReplayExactlyOnFreshEnvs) {
     if (!env) {
       env = std::move(envs::MakeEnv("breakout").value());
       s.resize(dim);
-      env->Reset(Actor::EnvSeed(42, 5, b->env_id()), s);
+      env->Reset(Actor::EnvSeed(42, 5, b->env_id() / COINS_MAX_LEVELS), s);
     }
     std::vector<float> states(size_t(b->n_rows()) * dim);
     DecodeStates(*b, states.data());
@@ -64,7 +64,7 @@ TEST(Actor, BatchesReplayExactlyOnFreshEnvs) {
         continue;
       }
       envs::StepResult res;
-      ASSERT_TRUE(env->Step({b->action().data() + r, 1}, s, &res).ok());
+      ASSERT_TRUE(env->Step({b->action().data() + size_t(r) * b->action_dim(), 1}, s, &res).ok());
       ASSERT_EQ(std::vector<float>(row, row + dim), s) << "batch " << b->seq() << " row " << r;
       EXPECT_EQ(b->reward()[r], res.reward);
       EXPECT_EQ(b->interactions()[r], res.interactions);

@@ -52,8 +52,6 @@ ProcessMain::ProcessMain(std::string binary, std::string description)
   app_.add_option("--log-level", log_level_, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
   app_.add_flag("--quiet-config", quiet_config_, "do not print the effective config at start");
-  app_.add_option("--resume-epoch", resume_epoch_, "continue from the files of checkpoint epoch N (coins run --resume)")
-      ->check(CLI::NonNegativeNumber);
   sections_.push_back(ConfigSection::Of("dds", dds_));
 }
 

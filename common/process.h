@@ -43,10 +43,6 @@ class ProcessMain {
   DdsOptions& dds() { return dds_; }
   // the process's name on DDS and in logs (e.g. "actor-3")
   std::string& name() { return name_; }
-  // --resume-epoch N (every process binary takes it; `coins run --resume` passes it to the
-  // shards, the learner and the orchestrator): continue from checkpoint epoch N's files;
-  // -1 when not given. Binaries must not add a --resume-epoch option of their own.
-  int64_t resume_epoch() const { return resume_epoch_; }
 
  private:
   std::string binary_;
@@ -58,7 +54,6 @@ class ProcessMain {
   std::string name_;
   std::string log_level_ = "info";
   bool quiet_config_ = false;
-  int64_t resume_epoch_ = -1;
 };
 
 }  // namespace coins

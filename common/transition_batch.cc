@@ -146,14 +146,21 @@ Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout, bool ch
   return Status::Ok();
 }
 
-void DecodeStates(const TransitionBatch& b, float* out) {
-  const size_t dim = b.state_dim();
-  std::memcpy(out, b.first_state().data(), dim * sizeof(float));
-  for (uint32_t r = 1; r < b.n_rows(); ++r) {
-    float* row = out + r * dim;
-    std::memcpy(row, row - dim, dim * sizeof(float));
-    for (uint32_t k = b.delta_end()[r - 1]; k < b.delta_end()[r]; ++k) row[b.delta_index()[k]] = b.delta_value()[k];
+void DecodeDeltaRows(const float* first_state, uint32_t dim, uint32_t n_rows, const uint32_t* delta_end,
+                     const uint16_t* delta_index, const float* delta_value, float* out) {
+  if (n_rows == 0) return;
+  std::memcpy(out, first_state, size_t(dim) * sizeof(float));
+  for (uint32_t r = 1; r < n_rows; ++r) {
+    float* row = out + size_t(r) * dim;
+    std::memcpy(row, row - dim, size_t(dim) * sizeof(float));
+    const uint32_t begin = delta_end[r - 1];
+    ApplyDeltas(delta_index + begin, delta_value + begin, delta_end[r] - begin, row);
   }
+}
+
+void DecodeStates(const TransitionBatch& b, float* out) {
+  DecodeDeltaRows(b.first_state().data(), b.state_dim(), b.n_rows(), b.delta_end().data(), b.delta_index().data(),
+                  b.delta_value().data(), out);
 }
 
 void BatchBuilder::Begin(TransitionBatch* batch, const BatchHeader& header, uint32_t max_rows) {

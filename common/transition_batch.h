@@ -43,6 +43,18 @@ Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout = 0, boo
 // transitions in a batch: rows without ROW_SEGMENT_START
 uint32_t CountTransitions(const TransitionBatch& b);
 
+// Delta-encoded rows (the one implementation every reader uses: the batch codec, the replay
+// store, the sampler and the sampling client). A row's deltas are pairs (index, value):
+// state[index[k]] = value[k] for k in [0, n), in order, so a later write of a feature wins.
+// Indices must be below the state's size (ValidateBatch checks received batches).
+inline void ApplyDeltas(const uint16_t* index, const float* value, size_t n, float* state) {
+  for (size_t k = 0; k < n; ++k) state[index[k]] = value[k];
+}
+// decodes n_rows states of dim floats (row-major) into out: row 0 is first_state, row r is row
+// r-1 with the deltas [delta_end[r-1], delta_end[r]) applied
+void DecodeDeltaRows(const float* first_state, uint32_t dim, uint32_t n_rows, const uint32_t* delta_end,
+                     const uint16_t* delta_index, const float* delta_value, float* out);
+
 // writes the batch's n_rows x state_dim states (row-major) into out; the batch must be valid
 void DecodeStates(const TransitionBatch& b, float* out);
 

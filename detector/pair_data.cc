@@ -87,18 +87,17 @@ Result<PairLayout> FitPairLayout(const envs::EnvSpec& spec, const TransitionSet&
 
 namespace {
 
-// writes the source block of the active input for transition t into col
-void WriteSource(const PairLayout& L, const TransitionSet& data, int64_t t, float* col) {
+// writes the source block of the active input into col: the source factor (or nothing for the
+// action source) normalised, then the action (one-hot when discrete)
+void WriteSource(const PairLayout& L, std::span<const float> s, std::span<const float> a, float* col) {
   int r = 0;
   if (!L.source_is_action) {
-    const auto s = data.state(t);
     for (int i = 0; i < L.source_features; ++i) {
       const float lo = L.source_low[i], hi = L.source_high[i];
       col[r++] = (s[L.source_offset + i] - 0.5f * (hi + lo)) / (0.5f * (hi - lo));
     }
     if (!L.source_action) return;
   }
-  const auto a = data.action(t);
   if (L.action.discrete) {
     for (int i = 0; i < L.action.n; ++i) col[r + i] = 0.0f;
     const int ai = std::clamp(int(std::lround(a[0])), 0, L.action.n - 1);
@@ -112,6 +111,35 @@ void WriteSource(const PairLayout& L, const TransitionSet& data, int64_t t, floa
 }
 
 }  // namespace
+
+bool EncodeSample(const PairLayout& L, const PairTransition& src, const PairTransition& tgt, int instance,
+                  float* passive, float* active, float* target) {
+  const int tfeat = L.target_features, sdim = L.source_input_dim();
+  const int base = L.target_offset + instance * tfeat;
+  WriteSource(L, src.state, src.action, active);
+  for (int k = 0; k < tfeat; ++k) {
+    const float lo = L.target_low[k], hi = L.target_high[k];
+    const float v = (tgt.state[base + k] - 0.5f * (hi + lo)) / (0.5f * (hi - lo));
+    passive[k] = v;
+    active[sdim + k] = v;
+  }
+  float dist = 0.0f, dist_next = 0.0f;
+  const int np = int(L.positions.size());
+  for (int p = 0; p < np; ++p) {
+    const auto [ia, ib] = L.positions[p];
+    const float diff = src.state[L.source_offset + ia] - tgt.state[base + ib];
+    active[sdim + tfeat + p] = diff / L.relative_scale(p);
+    active[sdim + tfeat + np + p] = (src.next_state[L.source_offset + ia] - tgt.state[base + ib]) / L.relative_scale(p);
+    dist += std::abs(diff);
+    dist_next += std::abs(src.next_state[L.source_offset + ia] - tgt.next_state[base + ib]);
+  }
+  for (int d = 0; d < L.output_dim(); ++d) {
+    const int k = L.dims[d];
+    target[d] = std::clamp((tgt.next_state[base + k] - tgt.state[base + k]) / L.scale[d], -1.0f, 1.0f);
+  }
+  // close: near before and after the transition (always, for a pair without proximity)
+  return !L.has_proximity() || (dist <= L.close_distance && dist_next <= L.close_distance);
+}
 
 PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data,
                         const DetectorOptions& options, bool all_instances, uint64_t seed) {
@@ -154,41 +182,17 @@ PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data,
 
   // encode every sample
   const int64_t m = out.size();
-  const int src = L.source_input_dim();
   out.passive_in.resize(L.passive_input_dim(), m);
   out.active_in.resize(L.active_input_dim(), m);
   out.target.resize(L.output_dim(), m);
   out.close.assign(m, 1);
   for (int64_t j = 0; j < m; ++j) {
     const int64_t t = out.transition[j];
-    const auto s = data.state(t), s2 = data.next_state(t);
-    const int base = L.target_offset + out.instance[j] * tfeat;
-    float* act = out.active_in.col(j).data();
-    WriteSource(L, data, t, act);
-    for (int k = 0; k < tfeat; ++k) {
-      const float lo = L.target_low[k], hi = L.target_high[k];
-      const float v = (s[base + k] - 0.5f * (hi + lo)) / (0.5f * (hi - lo));
-      out.passive_in(k, j) = v;
-      act[src + k] = v;
-    }
-    float dist = 0.0f, dist_next = 0.0f;
-    const int np = int(L.positions.size());
-    for (int p = 0; p < np; ++p) {
-      const auto [ia, ib] = L.positions[p];
-      const float diff = s[L.source_offset + ia] - s[base + ib];
-      act[src + tfeat + p] = diff / L.relative_scale(p);
-      act[src + tfeat + np + p] = (s2[L.source_offset + ia] - s[base + ib]) / L.relative_scale(p);
-      dist += std::abs(diff);
-      dist_next += std::abs(s2[L.source_offset + ia] - s2[base + ib]);
-    }
-    // close: near before and after the transition
-    if (L.has_proximity()) {
-      out.close[j] = dist <= L.close_distance && dist_next <= L.close_distance ? 1 : 0;
-    }
-    for (int d = 0; d < L.output_dim(); ++d) {
-      const int k = L.dims[d];
-      out.target(d, j) = std::clamp((s2[base + k] - s[base + k]) / L.scale[d], -1.0f, 1.0f);
-    }
+    const PairTransition tr{data.state(t), data.action(t), data.next_state(t)};
+    out.close[j] = EncodeSample(L, tr, tr, out.instance[j], out.passive_in.col(j).data(),
+                                out.active_in.col(j).data(), out.target.col(j).data())
+                       ? 1
+                       : 0;
   }
   return out;
 }

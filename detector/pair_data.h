@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,16 @@ struct PairSamples {
   std::vector<uint8_t> close;       // M: proximity (1 when the pair has none)
   int64_t size() const { return int64_t(transition.size()); }
 };
+
+// one transition's arrays (state and next_state of the layout's state space)
+struct PairTransition {
+  std::span<const float> state, action, next_state;
+};
+// Encodes one sample: the source block and relative positions from `src`, the target (instance)
+// from `tgt` (the same transition, or another one's source for a counterfactual). Writes the
+// passive input, active input and target columns; returns whether a and b are close.
+bool EncodeSample(const PairLayout& layout, const PairTransition& src, const PairTransition& tgt, int instance,
+                  float* passive, float* active, float* target);
 
 // Encodes data. Multi-instance targets: every changed instance of every transition plus
 // options.static_instances_per_step unchanged ones drawn with seed (all_instances: every one).

@@ -1,17 +1,79 @@
-// LearnerOptions: the "learner" section of the config. The learner's training settings join
-// here as the chain is built.
+// LearnerOptions: the "learner" section of the config. Levels of the hierarchy are found at
+// run time, so their settings come in three groups by what a level's actions are, never by
+// link: `primitive_*` for the first skill (primitive actions), `skill_*` for skills whose actions
+// are goals of the skill below, `task_*` for the task policy over the top skill. Detection
+// settings are `detect_*`. Defaults follow shared/reference/coins-method.md unless the comment
+// says why not.
 #pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
 
 #include "common/config/config.h"
 
 namespace coins {
 
-struct LearnerOptions {
-  // seconds between heartbeats and progress lines
-  double status_period_s = 1.0;
+// how one group of levels is trained and run
+struct LevelTrainOptions {
+  std::string algorithm = "dqn";      // dqn (discrete actions) | ddpg (continuous actions)
+  std::vector<double> hidden = {128, 128};
+  double lr = 7e-4;
+  int64_t batch = 64;
+  int64_t n_step = 2;
+  double gamma = 0.99;
+  int64_t target_update = 1000;       // dqn: hard target copy every N updates
+  double tau = 0.005;                 // ddpg: Polyak factor
+  int64_t atoms = 51;                 // dqn: distributional when > 1
+  double v_min = -30, v_max = 0;
+  bool dueling = true;
+  double explore = 0.3;               // acting: dqn epsilon / ddpg noise std
+  std::string her = "future";         // hindsight: none | final | future
+  double her_ratio = 0.5;
+  bool prioritized = false;
+  double priority_alpha = 0.2;        // only used when prioritized (replay.priority_exponent sets the shards')
+  double step_reward = -1, success_reward = 0, interaction_reward = -1;
+  double goal_epsilon = 0.024;        // continuous goals: reached within this, in normalised units
+  int64_t timeout = 30;               // env steps before a goal times out
+  int64_t decision_period = 0;        // env steps per action at most (0: until the child's goal ends)
+  std::vector<double> child_offsets;  // continuous 1-d child goals as discrete offsets (dqn); empty: ddpg
+  double child_ratio = 0.15;          // child goal = child value + offset * ratio * range
+  int64_t publish_every = 50;         // updates between weight publications
 
-  void Visit(ConfigVisitor& v) { v.Float("status_period_s", status_period_s, 0.05, 3600, "status period (s)"); }
-  Status Validate() const { return Status::Ok(); }
+  void Visit(ConfigVisitor& v, const std::string& p);
+  Status Validate(const std::string& p) const;
+};
+
+struct LearnerOptions {
+  // seconds between status publications
+  double status_period_s = 1.0;
+  LevelTrainOptions primitive = Primitive();
+  LevelTrainOptions skill = Skill();
+  LevelTrainOptions task = Task();
+  // detection rounds: samples drawn from replay per target (at most), the held-out fraction
+  // scored, and a cap on sampled floats (multi-instance targets carry many features)
+  int64_t detect_max_samples = 200000;
+  int64_t detect_max_floats = 20000000;
+  double detect_holdout = 0.2;
+  // detector training (detector/options.h)
+  int64_t detect_passive_steps = 4000;
+  int64_t detect_active_steps = 10000;
+  double detect_eps_si = 3.0;
+  // a skill trained on interactions retrains its link's detector from replay this often (env
+  // steps; 0: never), as the reference retrained the paddle-ball model during ball training
+  int64_t detector_retrain_steps = 50000;
+  // evaluation: greedy episodes (task) or goals (skills) every eval_every_steps env steps
+  int64_t eval_every_steps = 20000;
+  int64_t eval_episodes = 20;
+  int64_t eval_max_steps = 20000;     // env steps at most per evaluation episode
+  // checkpoints go to RUN_DIR/checkpoints
+  int64_t checkpoint_keep = 3;
+
+  static LevelTrainOptions Primitive();
+  static LevelTrainOptions Skill();
+  static LevelTrainOptions Task();
+  void Visit(ConfigVisitor& v);
+  Status Validate() const;
 };
 
 }  // namespace coins

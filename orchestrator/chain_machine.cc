@@ -273,7 +273,10 @@ bool ChainMachine::OnLearner(const LearnerReport& r) {
 }
 
 void ChainMachine::TrackEval(const LearnerReport& r) {
-  if (r.eval_episodes == 0 || r.eval_env_steps <= s_.eval.env_steps || !std::isfinite(r.eval_return_mean)) return;
+  // only the task policy's evaluations (skills report their own: eval_success)
+  if (r.job != "train-task" || r.eval_episodes == 0 || r.eval_env_steps <= s_.eval.env_steps ||
+      !std::isfinite(r.eval_return_mean))
+    return;
   s_.eval = Eval{r.eval_env_steps, r.eval_return_mean, r.eval_return_sd, r.eval_episodes};
   if (s_.phase != Phase::kTask || r.command_seq != s_.seq || r.eval_env_steps < s_.phase_start) return;
   TaskTracker& t = s_.task;

@@ -12,8 +12,9 @@
 //   - OnSkillCounts: cumulative goals started / reached of a level, summed over actors. The
 //     machine windows them (success_window_goals goals a window); a count that drops (an actor
 //     restarted) starts a new window.
-//   - OnLearner: the learner's status for the current seq: evaluations (task convergence),
-//     a failed job, and "scores published" (scores that never arrive are asked for again).
+//   - OnLearner: the learner's status for the current seq: task evaluations (job train-task;
+//     task convergence), a failed job, and "scores published" (scores that never arrive are
+//     asked for again).
 // Outputs: command() (its seq grows at every transition; the epoch field changes without a new
 // seq), state() (persisted by chain_store.h), and Targets().
 //

@@ -302,6 +302,10 @@ TEST(ChainMachine, TaskTrainsOverTheLastSkillAndConvergesOnTheEvalReturn) {
   stale.command_seq -= 1;
   c.m.OnLearner(stale);
   EXPECT_EQ(c.m.state().task.evals, 0u);
+  LearnerReport skill_eval = Eval(c.m, 6600, 40.0);  // a skill's evaluation is not the task's
+  skill_eval.job = "train-skill";
+  c.m.OnLearner(skill_eval);
+  EXPECT_EQ(c.m.state().eval.env_steps, 6500u);
   c.m.OnEnvSteps(7000);
   c.m.OnLearner(Eval(c.m, 7000, 10.0));
   c.m.OnEnvSteps(8000);

@@ -1,15 +1,12 @@
 #include "orchestrator/chain_store.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
-#include <cstring>
 #include <fstream>
 #include <regex>
 #include <sstream>
+
+#include "common/files.h"
 
 namespace coins::chain {
 
@@ -18,57 +15,21 @@ using nlohmann::json;
 
 namespace {
 
-// writes all of text to fd, retrying short writes and EINTR
-bool WriteAll(int fd, const std::string& text) {
-  size_t done = 0;
-  while (done < text.size()) {
-    ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += size_t(n);
-  }
-  return true;
-}
-
-Status FsyncDir(const fs::path& dir) {
-  int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return Errorf("cannot open directory {}: {}", dir.string(), std::strerror(errno));
-  int rc = ::fsync(fd);
-  ::close(fd);
-  if (rc != 0) return Errorf("cannot fsync directory {}: {}", dir.string(), std::strerror(errno));
-  return Status::Ok();
-}
-
 // a string member of j, or "" when it is absent or not a string
 std::string StringField(const json& j, const char* key) {
   auto it = j.find(key);
   return it != j.end() && it->is_string() ? it->get<std::string>() : std::string();
 }
 
-}  // namespace
-
-Status WriteFileAtomic(const fs::path& path, const std::string& text) {
+// the file written atomically (common/files.h), its directory created first
+Status WriteState(const fs::path& path, const std::string& text) {
   std::error_code ec;
-  const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
-  fs::create_directories(dir, ec);
-  if (ec) return Errorf("cannot create directory {}: {}", dir.string(), ec.message());
-  const fs::path tmp = path.string() + ".tmp";
-  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return Errorf("cannot create {}: {}", tmp.string(), std::strerror(errno));
-  bool written = WriteAll(fd, text) && ::fsync(fd) == 0;
-  int err = errno;
-  ::close(fd);
-  if (!written) {
-    fs::remove(tmp, ec);
-    return Errorf("cannot write {}: {}", tmp.string(), std::strerror(err));
-  }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    err = errno;
-    fs::remove(tmp, ec);
-    return Errorf("cannot rename {} to {}: {}", tmp.string(), path.string(), std::strerror(err));
-  }
-  return FsyncDir(dir);
+  fs::create_directories(path.parent_path(), ec);
+  if (ec) return Errorf("cannot create directory {}: {}", path.parent_path().string(), ec.message());
+  return WriteFileAtomic(path.string(), text);
 }
+
+}  // namespace
 
 ChainStore::ChainStore(fs::path dir, ConfigValues fingerprint)
     : dir_(std::move(dir)), fingerprint_(std::move(fingerprint)), hash_(HashConfig(fingerprint_)) {}
@@ -81,9 +42,9 @@ std::string ChainStore::Render(const ChainState& s) const {
   return j.dump(1) + "\n";
 }
 
-Status ChainStore::Save(const ChainState& s) const { return WriteFileAtomic(StatePath(), Render(s)); }
+Status ChainStore::Save(const ChainState& s) const { return WriteState(StatePath(), Render(s)); }
 
-Status ChainStore::SaveEpoch(const ChainState& s) const { return WriteFileAtomic(EpochPath(s.epoch), Render(s)); }
+Status ChainStore::SaveEpoch(const ChainState& s) const { return WriteState(EpochPath(s.epoch), Render(s)); }
 
 Result<std::optional<ChainState>> ChainStore::Load() const {
   std::error_code ec;

@@ -30,9 +30,6 @@ inline constexpr int kChainStoreSchema = 1;
 nlohmann::json StateToJson(const ChainState& s);
 Result<ChainState> StateFromJson(const nlohmann::json& j);
 
-// writes text to path atomically (tmp, fsync, rename, fsync dir); creates the directory
-Status WriteFileAtomic(const std::filesystem::path& path, const std::string& text);
-
 class ChainStore {
  public:
   // dir: RUN_DIR/chain; fingerprint: ChainFingerprint of the running config

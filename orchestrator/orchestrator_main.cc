@@ -33,7 +33,11 @@ Result<ChainAdapter::Io> OpenTopics(dds::Node& node, dds::Heartbeat* heartbeat, 
 int OrchestratorMain(int argc, char** argv) {
   ProcessMain main("coins-orchestrator", "Runs the chain of interaction skills and publishes ChainStatus.");
   SystemConfig config;
+  int64_t resume_epoch = -1;
   for (auto& section : config.Sections(false)) main.AddSection(section);
+  main.app().add_option("--resume-epoch", resume_epoch,
+                        "continue from chain-epoch-N.json (coins run --resume); default: chain.json")
+      ->check(CLI::NonNegativeNumber);
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (main.name() == "coins-orchestrator") main.name() = "orchestrator";
 
@@ -43,7 +47,7 @@ int OrchestratorMain(int argc, char** argv) {
     return 2;
   }
   chain::ChainStore store(std::filesystem::path(config.run.dir) / "chain", ChainFingerprint(config.Values()));
-  auto machine = OpenChain(store, (*env)->spec(), config.orchestrator, main.resume_epoch());
+  auto machine = OpenChain(store, (*env)->spec(), config.orchestrator, resume_epoch);
   if (!machine.ok()) {
     spdlog::error("{}", machine.status().message());
     return 1;

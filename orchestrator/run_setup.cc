@@ -81,7 +81,7 @@ Status PrepareRun(const RunFlags& f, SystemConfig& c, RunPlan* plan) {
 
 Status ClearPreviousRun(const SystemConfig& c, RunPlan* plan) {
   const fs::path dir(c.run.dir);
-  std::vector<fs::path> old = {dir / "chain", dir / "learner"};
+  std::vector<fs::path> old = {dir / "chain", dir / "checkpoints"};
   if (fs::path(c.replay.snapshot_dir) == dir / "replay") old.push_back(dir / "replay");
   std::string removed;
   for (const auto& p : old) {

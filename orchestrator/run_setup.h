@@ -3,11 +3,11 @@
 //
 // Run directory layout: config.yaml (the effective config), logs/, chain/ (the orchestrator's
 // chain.json and chain-epoch-N.json), replay/ (shard snapshots, the default
-// replay.snapshot_dir), learner/ (the learner's checkpoints), metrics.csv, metrics.jsonl,
-// eval.csv, *.png, summary.json, final.gif.
+// replay.snapshot_dir), checkpoints/ (the learner's learner-epoch-N/), metrics.csv,
+// metrics.jsonl, eval.csv, *.png, summary.json, final.gif.
 //
 // Fresh: the config file, the flags and --set overrides; replay.snapshot_dir defaults to
-// RUN_DIR/replay. The previous run's chain/, replay/ (the default one) and learner/ in the same
+// RUN_DIR/replay. The previous run's chain/, replay/ (the default one) and checkpoints/ in the same
 // directory are removed, so that nothing of it is resumed by mistake (said on one line).
 // Resume: RUN_DIR/config.yaml, then the flags and overrides; any change of a key the chain
 // depends on (config_values.h: all but the operational keys), through --config or an override,
@@ -33,7 +33,7 @@ struct RunPlan {
 
 // fills c and plan, or returns the one-line reason the run cannot start
 Status PrepareRun(const RunFlags& flags, SystemConfig& c, RunPlan* plan);
-// fresh runs: removes the previous run's chain, default snapshot and learner directories
+// fresh runs: removes the previous run's chain, default snapshot and checkpoint directories
 Status ClearPreviousRun(const SystemConfig& c, RunPlan* plan);
 
 }  // namespace coins

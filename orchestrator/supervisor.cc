@@ -16,7 +16,9 @@ Supervisor::Clock::duration Backoff(int64_t restarts) {
 }  // namespace
 
 Status Supervisor::Start(ChildSpec spec) {
-  slots_.push_back(Slot{std::move(spec)});
+  Slot slot;
+  slot.spec = std::move(spec);
+  slots_.push_back(std::move(slot));
   children_.emplace_back();
   Status s = Spawn(slots_.size() - 1, true);
   if (!s.ok()) {

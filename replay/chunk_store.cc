@@ -221,15 +221,10 @@ void ChunkStore::DecodeStates(size_t i, float* out) const {
   const ChunkInfo& c = chunk(i);
   const Offsets o = Layout(c.n_rows, c.n_deltas);
   const uint8_t* base = arena_.get() + c.offset;
-  const auto* end = reinterpret_cast<const uint32_t*>(base + o.delta_end);
-  const auto* index = reinterpret_cast<const uint16_t*>(base + o.delta_index);
-  const auto* value = reinterpret_cast<const float*>(base + o.delta_value);
-  std::memcpy(out, base + o.first_state, size_t(state_dim_) * 4);
-  for (uint32_t r = 1; r < c.n_rows; ++r) {
-    float* row = out + size_t(r) * state_dim_;
-    std::memcpy(row, row - state_dim_, size_t(state_dim_) * 4);
-    for (uint32_t k = end[r - 1]; k < end[r]; ++k) row[index[k]] = value[k];
-  }
+  DecodeDeltaRows(reinterpret_cast<const float*>(base + o.first_state), state_dim_, c.n_rows,
+                  reinterpret_cast<const uint32_t*>(base + o.delta_end),
+                  reinterpret_cast<const uint16_t*>(base + o.delta_index),
+                  reinterpret_cast<const float*>(base + o.delta_value), out);
 }
 
 const float* ChunkStore::rewards(size_t i) const {
@@ -261,6 +256,11 @@ const uint8_t* ChunkStore::skill_levels(size_t i) const {
   return arena_.get() + c.offset + Layout(c.n_rows, c.n_deltas).skill;
 }
 
+const uint32_t* ChunkStore::interactions(size_t i) const {
+  const ChunkInfo& c = chunk(i);
+  return reinterpret_cast<const uint32_t*>(arena_.get() + c.offset + Layout(c.n_rows, c.n_deltas).interactions);
+}
+
 const uint64_t* ChunkStore::provenance(size_t i) const {
   const ChunkInfo& c = chunk(i);
   return reinterpret_cast<const uint64_t*>(arena_.get() + c.offset + Layout(c.n_rows, c.n_deltas).provenance);
@@ -275,7 +275,7 @@ void ChunkStore::DecodeRow(size_t i, uint32_t r, float* out) const {
   const auto* value = reinterpret_cast<const float*>(base + o.delta_value);
   std::memcpy(out, base + o.first_state, size_t(state_dim_) * 4);
   // deltas apply in row order, so the last write of a feature wins
-  for (uint32_t k = 0; k < end[r]; ++k) out[index[k]] = value[k];
+  ApplyDeltas(index, value, end[r], out);
 }
 
 void ChunkStore::RowDeltas(size_t i, uint32_t r, const uint16_t** index, const float** value, uint32_t* n) const {

@@ -102,6 +102,7 @@ class ChunkStore {
   const float* actions(size_t i) const;  // n_rows x action_dim
   const float* goals(size_t i) const;    // n_rows x goal_dim
   const uint8_t* skill_levels(size_t i) const;
+  const uint32_t* interactions(size_t i) const;  // simulator ground truth, bit i = env pair i
   // the chunk's provenance block (common/transition_batch.h): command_seq, then the weights
   // version of each level
   const uint64_t* provenance(size_t i) const;

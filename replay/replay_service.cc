@@ -83,13 +83,7 @@ void ReplayService::Sample(const msg::SampleRequest& req, msg::SampleReply* repl
   auto fail = [&](uint8_t status, const std::string& error) {
     reply->status(status);
     reply->error(error);
-    reply->n(0);
-    for (auto* v : {&reply->state(), &reply->next_value(), &reply->action(), &reply->goal(), &reply->reward(),
-                    &reply->discount(), &reply->weight()})
-      v->clear();
-    reply->next_end().clear();
-    reply->next_index().clear();
-    reply->key().clear();
+    ClearSampleColumns(reply);
   };
   uint32_t state_dim;
   {

@@ -3,22 +3,41 @@
 // Selection: uniform over transitions held, prioritised (P(i) = p_i^alpha / sum, importance
 // weight (N P(i))^-beta normalised by the batch maximum), or weighted by a per-transition
 // weight (importance weight 1: the bias is intended). Rows that are not transitions, and rows
-// of another skill level when the request names one, are redrawn (bounded).
+// of a skill level the request does not ask for, are redrawn (bounded). Levels: a non-zero
+// level_mask selects rows whose level L has bit L set; otherwise skill_level (-1: any).
 //
-// Returns: n-step inside the segment: reward = sum_{k<n} gamma^k r_{t+k}, next_state the state
-// n steps later or at the segment's end, discount gamma^k, or 0 when the episode ended
-// (ROW_DONE) or the acting skill terminated inside the window. Segments follow chunk links, so
-// they span batches.
+// Segments: a walk from the sampled row goes row by row and across chunk links; it ends after a
+// row flagged ROW_DONE, ROW_TRUNCATED, ROW_SKILL_TERMINATED or ROW_GOAL_END, before a
+// ROW_SEGMENT_START row, at a chunk flagged ROW_EPISODE_START, or where the link is missing.
 //
-// Hindsight: with a goal mask, goals are mask-sized, goal[i] = state[target_offset + i] *
-// mask[i], and a fraction her_ratio of the batch is relabelled with the achieved goal at the
-// segment's final step (HER_FINAL) or at a uniformly chosen later step (HER_FUTURE), the walk
-// bounded by max_segment_rows. Reward and discount are then recomputed for the goal, one step:
-// reached = max_i |mask_i (achieved_i - goal_i)| <= goal_epsilon, reward = reached ? 0 : -1,
-// discount = reached or done ? 0 : gamma. Rows whose stored goal is not mask-sized are always
-// relabelled.
+// Returns, n steps inside the segment (k = steps taken, 1 <= k <= n_step):
+//   reward = sum_{j<k} gamma^j r_j, next_state = the state after the k-th step,
+//   discount = 0 when step k was terminal, else gamma^k.
+// Plain requests (goal_mask empty): r_j is the stored reward; terminal = ROW_DONE or
+// ROW_SKILL_TERMINATED; the goal column is the stored goal (goal_dim floats).
+// Goal-conditioned requests (goal_mask of m floats over the target factor at target_offset):
+//   goal        = the stored goal's first m floats times the mask (a row's goal column holds
+//                 the acting skill's goal as the whole target factor, so m <= goal_dim), or,
+//                 for a fraction her_ratio of the batch (every sample when the store keeps no
+//                 goals, goal_dim 0), the achieved goal mask * state[target_offset ..] at the
+//                 next state of a row chosen in the segment from the sampled row on: its last
+//                 row (HER_FINAL, also used for goal_dim 0 with HER_NONE) or a uniformly chosen
+//                 one (HER_FUTURE); the walk is bounded by max_segment_rows.
+//   per step j, with s' the state after it:
+//   interaction = the row's ROW_INTERACTION flag
+//   success     = GoalReached(mask * s'[target], goal, mask, goal_epsilon, goal_norm) and
+//                 (interaction or not require_interaction)
+//   r_j         = success ? success_reward : (interaction ? interaction_reward : step_reward)
+//   terminal    = success or ROW_DONE or (terminate_on_interaction and interaction)
 //
-// Keys are global row numbers. Not thread-safe: the caller holds the shard's lock.
+// Columns: state and next_state hold the requested features in order (all when features is
+// empty), feature_dim of them; next_state travels as deltas against state whose indices are
+// feature columns. interactions, flags and skill_level are the sampled row's; policy_version is
+// the weights version of the row's level from its chunk's provenance (level L >= 1:
+// policy_versions[L - 1]; level 0, random actions: 0). Keys are global row numbers.
+//
+// Not thread-safe: the caller holds the shard's lock. Buffers are sized on the first request of
+// a shape; after that a request allocates nothing (the reply's columns keep their capacity).
 #pragma once
 
 #include <cstdint>
@@ -39,15 +58,21 @@ struct SamplerOptions {
   int redraws = 64;                  // redraws per sample before giving up
 };
 
-// checks a request against the store's dims; the error names the field
+// checks a request on its own and against the store's state_dim; the error names the field.
+// What needs the rest of the store's layout (goal_dim, action_dim) Sampler::Sample checks.
 Status ValidateSampleRequest(const msg::SampleRequest& req, uint32_t state_dim);
+
+// empties every column of a reply (n = 0) and keeps their capacity
+void ClearSampleColumns(msg::SampleReply* reply);
 
 class Sampler {
  public:
   explicit Sampler(SamplerOptions options) : options_(options) {}
 
-  // fills reply (columns, keys, weights; not the header fields) with req.batch_size samples;
-  // the request must have passed ValidateSampleRequest
+  // fills reply (dims, columns, keys, weights; not the header fields) with req.batch_size
+  // samples; the request must have passed ValidateSampleRequest. Errors name the field that
+  // does not fit the store (goal_mask longer than the stored goals, ...) or the selection that
+  // found no rows.
   Status Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
                 msg::SampleReply* reply, std::mt19937_64* rng);
 
@@ -56,15 +81,41 @@ class Sampler {
     uint32_t chunk;  // index (0 = oldest)
     uint32_t row;
   };
-  // draws one transition row; false when redraws ran out
+  // what one request fixes for all its samples
+  struct Plan {
+    uint32_t batch = 0, state_dim = 0, action_dim = 0, goal_dim = 0, feature_dim = 0, mask_size = 0;
+    bool goal_conditioned = false;
+  };
+  // checks the request against the store's layout, sizes the reply's columns and the scratch
+  Status Prepare(const ChunkStore& store, const msg::SampleRequest& req, msg::SampleReply* reply);
+  // draws one transition row of a selected level; false when redraws ran out
   bool Draw(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req, std::mt19937_64* rng,
             Pos* pos, double* prob);
+  // fills sample i of the reply from the transition at row p
+  void SampleOne(const ChunkStore& store, const msg::SampleRequest& req, Pos p, uint32_t i, msg::SampleReply* reply,
+                 std::mt19937_64* rng);
+  // the columns that come from row p alone: key, action, interactions, flags, level, version
+  void RowColumns(const ChunkStore& store, Pos p, uint32_t i, msg::SampleReply* reply) const;
+  // the goal of a goal-conditioned sample at row p (mask_size floats), stored or relabelled
+  void ChooseGoal(const ChunkStore& store, const msg::SampleRequest& req, Pos p, float* goal, std::mt19937_64* rng);
+  // walks up to n_step rows from p applying deltas to next_; writes the n-step reward and
+  // discount (goal: the goal-conditioned rewards, nullptr: the stored ones)
+  void Walk(const ChunkStore& store, const msg::SampleRequest& req, Pos p, const float* goal, float* reward,
+            float* discount);
+  // the goal-conditioned reward of one step whose next state is next_; sets *terminal
+  float GoalReward(const msg::SampleRequest& req, uint16_t flags, const float* goal, bool* terminal);
+  // the requested feature columns of a full state
+  void Gather(const msg::SampleRequest& req, const float* full, float* out) const;
+  // appends sample i's next-state deltas (feature columns where next_ differs from state_)
+  void NextDeltas(const msg::SampleRequest& req, uint32_t i, msg::SampleReply* reply) const;
+  void ImportanceWeights(const ChunkStore& store, const msg::SampleRequest& req, msg::SampleReply* reply) const;
   // the next row of the segment after p (following chunk links); false at the segment's end
   static bool Advance(const ChunkStore& store, Pos* p);
   // applies row p's deltas to state
   static void ApplyRow(const ChunkStore& store, Pos p, float* state);
 
   SamplerOptions options_;
+  Plan plan_;
   std::vector<float> state_, next_, goal_state_, achieved_;
   std::vector<Pos> walk_;
   std::vector<double> probs_;

@@ -110,6 +110,7 @@ TEST(Sampler, HindsightFinalAndFutureUseTheSegmentsAchievedGoals) {
     q.goal_mask({0.0f, 1.0f});  // features 2..3: the goal is the step counter
     q.target_offset(2);
     q.goal_epsilon(0.5f);
+    q.step_reward(-1.0f);  // the paddle skill's rewards: -1 a step, 0 on success
     msg::SampleReply r;
     ASSERT_TRUE(sampler.Sample(f.shard.store(), f.shard.priorities(), q, &r, &rng).ok());
     ASSERT_EQ(r.goal_dim(), 2u);

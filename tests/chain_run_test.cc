@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "common/checkpoint.h"
+#include "orchestrator/chain_store.h"
 #include "tests/process_harness.h"
 
 namespace coins {
@@ -61,22 +63,25 @@ TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpen
   // the chain leaves collecting at the first detect point (10k random steps)
   ASSERT_TRUE(WaitUntil([&] { return ChainState(run).value("seq", 0) >= 2; }, std::chrono::seconds(60)))
       << ReadText(dir / "run.log");
-  const nlohmann::json before = ChainState(run);
   const pid_t first = PidOf("coins-orchestrator", run);
   ASSERT_GT(first, 0);
   ASSERT_EQ(kill(first, SIGKILL), 0);
+  // what the killed orchestrator persisted last: nothing else writes chain.json
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const nlohmann::json at_kill = ChainState(run);
   ASSERT_TRUE(WaitUntil([&] { return ReadText(dir / "run.log").find("orchestrator restarted") != std::string::npos; },
                         std::chrono::seconds(20)))
       << ReadText(dir / "run.log");
-  // the restarted orchestrator continues the persisted chain: same phase, same command
-  ASSERT_TRUE(WaitUntil([&] { return ReadText(run / "logs" / "orchestrator.log").find("continuing the chain from") !=
-                                     std::string::npos; },
-                        std::chrono::seconds(20)));
+  // the restarted orchestrator continues the persisted chain: the same command seq, then onwards
+  const std::string resumed = "(seq " + std::to_string(at_kill["seq"].get<uint64_t>()) + ", epoch";
+  ASSERT_TRUE(WaitUntil([&] {
+    const std::string log = ReadText(run / "logs" / "orchestrator.log");
+    const size_t at = log.find("continuing the chain from");
+    return at != std::string::npos && log.find(resumed, at) != std::string::npos;
+  }, std::chrono::seconds(20))) << resumed << "\n" << ReadText(run / "logs" / "orchestrator.log");
   std::this_thread::sleep_for(std::chrono::seconds(1));
-  const nlohmann::json after = ChainState(run);
-  EXPECT_EQ(after["phase"], before["phase"]);
-  EXPECT_EQ(after["seq"], before["seq"]);
-  EXPECT_EQ(after["source"], "Action");
+  EXPECT_GE(ChainState(run)["seq"].get<uint64_t>(), at_kill["seq"].get<uint64_t>());
+  EXPECT_GE(ChainState(run)["env_steps"].get<uint64_t>(), at_kill["env_steps"].get<uint64_t>());
   // a second crash spends the last retry: the run stops, naming the child and why
   pid_t second = -1;
   ASSERT_TRUE(WaitUntil([&] { return (second = PidOf("coins-orchestrator", run)) > 0 && second != first; },
@@ -105,6 +110,7 @@ fs::path FinishedRun(const std::string& name, int domain) {
 
 TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
   const fs::path run = FinishedRun("chain-resume-refused", TestDomain(7));
+  for (uint64_t e : chain::ChainStore::Epochs(run / "chain")) fs::remove(run / "chain" / ("chain-epoch-" + std::to_string(e) + ".json"));
   auto one_line = [](const CommandResult& r) { return std::count(r.output.begin(), r.output.end(), '\n') == 1; };
   auto r = RunCommand(Bin("coins") + " run --resume " + run.string());
   EXPECT_EQ(r.code, 2) << r.output;
@@ -124,36 +130,54 @@ TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
   EXPECT_NE(r.output.find("orchestrator.detect_every_steps is 5000 here, 10000 in"), std::string::npos) << r.output;
 }
 
+// the chain stays in collecting (detect point out of reach) while epochs are cut every 2 s:
+// the shard snapshots and the learner checkpoints, all acknowledged
 TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoch) {
-  const int domain = TestDomain(8);
-  const fs::path run = FinishedRun("chain-resume", domain);
-  MakeEpoch(run, 2);
-  std::ofstream(run / "chain" / "chain-epoch-5.json") << "{";  // the newest, but corrupt: skipped
-  const fs::path log = run.parent_path() / "resume.log";
+  auto dir = TempDir("chain-resume");
+  const fs::path run = dir / "run";
+  const std::string chain_flags = " --set orchestrator.detect_every_steps=1000000000 --set "
+                                  "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 "
+                                  "--set orchestrator.checkpoint_timeout_s=2";
   std::vector<ChildProcess> coins;
-  auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --resume " +
-                                   run.string() + " --steps 0"}, log.string());
-  ASSERT_TRUE(child.ok());
-  coins.push_back(std::move(*child));
-  EXPECT_TRUE(WaitUntil([&] { return ReadText(run / "logs" / "orchestrator.log").find("resuming the chain from epoch 2") !=
-                                     std::string::npos; },
-                        std::chrono::seconds(30)))
+  auto first = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --steps 0 --actors 1 "
+                                   "--shards 1 --quiet" + Flags(run, TestDomain(8)) + chain_flags},
+                                   (dir / "first.log").string());
+  ASSERT_TRUE(first.ok());
+  coins.push_back(std::move(*first));
+  ASSERT_TRUE(WaitUntil([&] { return !chain::ChainStore::Epochs(run / "chain").empty(); }, std::chrono::seconds(90)))
       << ReadText(run / "logs" / "orchestrator.log");
-  // the shard looked for its snapshot of epoch 2 (this synthetic epoch has none)
-  EXPECT_TRUE(WaitUntil([&] { return ReadText(run / "logs" / "replay-0.log").find("no snapshot of epoch 2") !=
-                                     std::string::npos; },
-                        std::chrono::seconds(30)))
-      << ReadText(run / "logs" / "replay-0.log");
-  EXPECT_TRUE(WaitUntil([&] { return ChainState(run).value("epoch", 0) == 2; }, std::chrono::seconds(10)));
   coins[0].Signal(SIGTERM);
-  ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(30)));
-  const std::string out = ReadText(log);
+  ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
+  ASSERT_TRUE(coins[0].succeeded()) << ReadText(dir / "first.log");
+  const uint64_t epoch = chain::ChainStore::Epochs(run / "chain").back();
+  std::ofstream(run / "chain" / ("chain-epoch-" + std::to_string(epoch + 5) + ".json")) << "{";  // newest, corrupt
+  const std::string e = std::to_string(epoch);
+
+  auto second = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --resume " +
+                                    run.string() + " --steps 0"}, (dir / "resume.log").string());
+  ASSERT_TRUE(second.ok());
+  coins[0] = std::move(*second);
+  auto logged = [&](const std::string& process, const std::string& text) {
+    return WaitUntil([&] { return ReadText(run / "logs" / (process + ".log")).find(text) != std::string::npos; },
+                     std::chrono::seconds(40));
+  };
+  EXPECT_TRUE(logged("orchestrator", "resuming the chain from epoch " + e)) << ReadText(run / "logs" / "orchestrator.log");
+  EXPECT_TRUE(logged("learner", "resumed from checkpoint epoch " + e)) << ReadText(run / "logs" / "learner.log");
+  // the shard restored the snapshot stamped with the epoch's command id
+  ASSERT_TRUE(logged("replay-0", "resumed ")) << ReadText(run / "logs" / "replay-0.log");
+  const std::string replay_log = ReadText(run / "logs" / "replay-0.log");
+  const size_t from = replay_log.find(" from ", replay_log.find("resumed ")) + 6;
+  const std::string snapshot = replay_log.substr(from, replay_log.find(" in ", from) - from);
+  auto inspect = RunCommand(Bin("coins") + " replay inspect --json " + snapshot);
+  ASSERT_EQ(inspect.code, 0) << snapshot << "\n" << inspect.output;
+  EXPECT_EQ(nlohmann::json::parse(inspect.output)["meta"]["command_id"], CheckpointCommandId(epoch));
+  coins[0].Signal(SIGTERM);
+  ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
+  const std::string out = ReadText(dir / "resume.log");
   EXPECT_TRUE(coins[0].succeeded()) << out;
-  EXPECT_NE(out.find("resuming epoch 2"), std::string::npos) << out;
-  EXPECT_NE(out.find("skipping epoch 5"), std::string::npos) << out;
-  // the resumed run kept the first run's chain directory and config
-  EXPECT_TRUE(fs::exists(run / "chain" / "chain-epoch-2.json"));
-  EXPECT_NE(ReadText(run / "config.yaml").find("domain: " + std::to_string(domain)), std::string::npos);
+  EXPECT_NE(out.find("resuming epoch " + e), std::string::npos) << out;
+  EXPECT_NE(out.find("skipping epoch " + std::to_string(epoch + 5)), std::string::npos) << out;
+  EXPECT_EQ(out.find("removed the previous run"), std::string::npos) << out;
 }
 
 }  // namespace

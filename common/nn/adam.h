@@ -36,6 +36,14 @@ class Adam {
   void set_lr(float lr) { options_.lr = lr; }
   const Eigen::VectorXf& first_moment() const { return m_; }
   const Eigen::VectorXf& second_moment() const { return v_; }
+  // restores the moments and step count of a checkpoint; false when the sizes differ
+  bool Restore(const Eigen::VectorXf& m, const Eigen::VectorXf& v, int64_t t) {
+    if (m.size() != m_.size() || v.size() != v_.size() || t < 0) return false;
+    m_ = m;
+    v_ = v;
+    t_ = t;
+    return true;
+  }
 
  private:
   AdamOptions options_;

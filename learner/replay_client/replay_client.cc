@@ -47,27 +47,16 @@ bool ReplayClient::WaitForShards(std::chrono::milliseconds timeout) {
   }
 }
 
-void ReplayClient::Round(const std::vector<uint32_t>& counts, std::chrono::steady_clock::time_point deadline,
-                         std::vector<int>* status, std::vector<std::string>* errors) {
+void ReplayClient::Round(std::chrono::steady_clock::time_point deadline, std::vector<int>* status,
+                         std::vector<std::string>* errors) {
   const int K = options_.shards;
   std::vector<uint64_t> ids(size_t(K), 0);
   // one request per shard with something to ask
   for (int k = 0; k < K; ++k) {
-    if (counts[size_t(k)] == 0) continue;
-    request_.schema_version(msg::SAMPLING_SCHEMA);
+    if (counts_[size_t(k)] == 0) continue;
     request_.correlation_id(ids[size_t(k)] = next_id_++);
-    request_.client(options_.name);
     request_.shard_id(k);
-    request_.batch_size(counts[size_t(k)]);
-    request_.strategy(options_.strategy);
-    request_.skill_level(options_.skill_level);
-    request_.n_step(options_.n_step);
-    request_.gamma(options_.gamma);
-    request_.her_strategy(options_.her_strategy);
-    request_.her_ratio(options_.her_ratio);
-    request_.goal_mask(options_.goal_mask);
-    request_.target_offset(options_.target_offset);
-    request_.goal_epsilon(options_.goal_epsilon);
+    request_.batch_size(counts_[size_t(k)]);
     auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     request_.timeout_ms(uint32_t(std::max<int64_t>(0, left.count() * 3 / 4)));
     (*status)[size_t(k)] = kPending;
@@ -91,7 +80,7 @@ void ReplayClient::Round(const std::vector<uint32_t>& counts, std::chrono::stead
         // keep the reply by swapping buffers: no copy, no allocation once warm
         size_t slot = size_t(round_) * size_t(K) + k;
         std::swap(slots_[slot], scratch_);
-        used_.push_back(slot);
+        merged_.push_back({&slots_[slot], k});
       } else {
         (*errors)[k] = r.error();
       }
@@ -104,97 +93,72 @@ void ReplayClient::Round(const std::vector<uint32_t>& counts, std::chrono::stead
     }
 }
 
-Status ReplayClient::Sample(int batch_size, rl::Batch* batch) {
-  if (batch_size < 1) return Errorf("replay client: batch_size {} must be positive", batch_size);
+uint32_t ReplayClient::Rebalance(const std::vector<int>& status, std::vector<bool>* good) {
   const int K = options_.shards;
-  const auto deadline = std::chrono::steady_clock::now() + options_.timeout;
-  used_.clear();
-  // split in proportion to the shard sizes last seen (largest remainder); equal when unknown
-  std::vector<uint32_t> counts(size_t(K), 0);
-  uint64_t total = 0;
-  for (uint64_t s : sizes_) total += s;
-  std::vector<std::pair<double, int>> rem;
-  uint32_t given = 0;
+  uint32_t done = 0, moved = 0;
+  std::vector<uint32_t> refused(size_t(K), 0);
   for (int k = 0; k < K; ++k) {
-    double share = total ? double(batch_size) * double(sizes_[size_t(k)]) / double(total) : double(batch_size) / K;
-    counts[size_t(k)] = uint32_t(share);
-    given += counts[size_t(k)];
-    rem.push_back({share - counts[size_t(k)], k});
+    uint32_t& n = counts_[size_t(k)];
+    if (n == 0) continue;
+    if (status[size_t(k)] == msg::SAMPLE_OK) {
+      done += n;
+      n = 0;
+      (*good)[size_t(k)] = sizes_[size_t(k)] > 0;
+    } else if (status[size_t(k)] != kNoReply) {
+      moved += n;
+      refused[size_t(k)] = n;
+      n = 0;
+    }
   }
-  std::sort(rem.rbegin(), rem.rend());
-  for (size_t i = 0; given < uint32_t(batch_size); ++i, ++given) counts[size_t(rem[i % rem.size()].second)]++;
+  std::vector<int> targets;
+  for (int k = 0; k < K; ++k)
+    if ((*good)[size_t(k)]) targets.push_back(k);
+  if (targets.empty()) {
+    // nobody else can take the share: ask the same shards again (the limiter may open)
+    for (int k = 0; k < K; ++k) counts_[size_t(k)] += refused[size_t(k)];
+  } else {
+    for (uint32_t i = 0; i < moved; ++i) counts_[size_t(targets[i % targets.size()])]++;
+  }
+  return done;
+}
 
+Status ReplayClient::Gather(const SampleSpec& spec, uint32_t batch, std::chrono::steady_clock::time_point deadline) {
+  const int K = options_.shards;
+  FillRequest(spec, &request_);
+  request_.client(options_.name);
   // rounds until every sample came or the deadline passed: a shard that did not answer (a
   // lost reply, a shard still matching) is asked again; a shard that answered NOT_READY or
   // BAD_REQUEST has its share moved to shards that answered
   std::vector<std::string> errors(static_cast<size_t>(K));
   std::vector<bool> good(size_t(K), false);
-  uint32_t missing = uint32_t(batch_size);
+  uint32_t missing = batch;
   const auto round_wait = std::max<std::chrono::milliseconds>(options_.timeout / 4, std::chrono::milliseconds(250));
   for (round_ = 0; round_ < kRounds && missing > 0 && std::chrono::steady_clock::now() < deadline; ++round_) {
     std::vector<int> status(size_t(K), msg::SAMPLE_OK);
-    Round(counts, std::min(deadline, std::chrono::steady_clock::now() + round_wait), &status, &errors);
-    uint32_t moved = 0;
-    std::vector<uint32_t> refused(size_t(K), 0);
-    for (int k = 0; k < K; ++k) {
-      uint32_t& n = counts[size_t(k)];
-      if (n == 0) continue;
-      if (status[size_t(k)] == msg::SAMPLE_OK) {
-        missing -= n;
-        n = 0;
-        good[size_t(k)] = sizes_[size_t(k)] > 0;
-      } else if (status[size_t(k)] != kNoReply) {
-        moved += n;
-        refused[size_t(k)] = n;
-        n = 0;
-      }
-    }
-    std::vector<int> targets;
-    for (int k = 0; k < K; ++k)
-      if (good[size_t(k)]) targets.push_back(k);
-    if (targets.empty()) {
-      // nobody else can take the share: ask the same shards again (the limiter may open)
-      for (int k = 0; k < K; ++k) counts[size_t(k)] += refused[size_t(k)];
-      continue;
-    }
-    for (uint32_t i = 0; i < moved; ++i) counts[size_t(targets[i % targets.size()])]++;
+    Round(std::min(deadline, std::chrono::steady_clock::now() + round_wait), &status, &errors);
+    missing -= Rebalance(status, &good);
   }
-  if (missing > 0) {
-    std::string why;
-    for (int k = 0; k < K; ++k)
-      if (!errors[size_t(k)].empty()) why += fmt::format("{}shard {}: {}", why.empty() ? "" : "; ", k, errors[size_t(k)]);
-    return Errorf("replay client: {} of {} samples missing after {} ms ({})", missing, batch_size,
-                  options_.timeout.count(), why);
-  }
+  if (missing == 0) return Status::Ok();
+  std::string why;
+  for (int k = 0; k < K; ++k)
+    if (!errors[size_t(k)].empty()) why += fmt::format("{}shard {}: {}", why.empty() ? "" : "; ", k, errors[size_t(k)]);
+  return Errorf("replay client: {} of {} samples missing after {} ms ({})", missing, batch, options_.timeout.count(),
+                why);
+}
 
-  // merge the replies into the batch's columns
-  const auto& first = slots_[used_.front()];
-  const int S = int(first.state_dim()), G = int(first.goal_dim()), A = int(first.action_dim());
-  batch->Resize(S + G, A, batch_size);
-  int j = 0;
-  std::vector<float> next(static_cast<size_t>(S));
-  for (size_t slot : used_) {
-    const msg::SampleReply& r = slots_[slot];
-    if (int(r.state_dim()) != S || int(r.goal_dim()) != G || int(r.action_dim()) != A)
-      return Errorf("replay client: shard {} replied with dims {}/{}/{}, others {}/{}/{}", r.shard_id(), r.state_dim(),
-                    r.action_dim(), r.goal_dim(), S, A, G);
-    for (uint32_t i = 0; i < r.n(); ++i, ++j) {
-      const float* s = r.state().data() + size_t(i) * S;
-      const float* g = r.goal().data() + size_t(i) * G;
-      std::copy_n(s, S, next.begin());
-      for (uint32_t k = i ? r.next_end()[i - 1] : 0; k < r.next_end()[i]; ++k) next[r.next_index()[k]] = r.next_value()[k];
-      for (int d = 0; d < S; ++d) {
-        batch->obs(d, j) = s[d];
-        batch->next_obs(d, j) = next[size_t(d)];
-      }
-      for (int d = 0; d < G; ++d) batch->obs(S + d, j) = batch->next_obs(S + d, j) = g[d];
-      for (int d = 0; d < A; ++d) batch->actions(d, j) = r.action()[size_t(i) * A + d];
-      batch->rewards(0, j) = r.reward()[i];
-      batch->discounts(0, j) = r.discount()[i];
-      batch->weights(0, j) = r.weight()[i];
-      batch->keys[size_t(j)] = Key(r.shard_id(), r.key()[i]);
-    }
-  }
+Status ReplayClient::Sample(const SampleSpec& spec, int batch, SampleColumns* out) {
+  if (batch < 1 || uint32_t(batch) > COINS_SAMPLE_MAX_BATCH)
+    return Errorf("replay client: batch {} not in [1, {}]", batch, COINS_SAMPLE_MAX_BATCH);
+  const auto deadline = std::chrono::steady_clock::now() + options_.timeout;
+  merged_.clear();
+  SplitBatch(sizes_, uint32_t(batch), &counts_);
+  COINS_RETURN_IF_ERROR(Gather(spec, uint32_t(batch), deadline));
+  return MergeReplies(merged_, out).WithContext("replay client");
+}
+
+Status ReplayClient::Sample(int batch_size, rl::Batch* batch) {
+  COINS_RETURN_IF_ERROR(Sample(static_cast<const SampleSpec&>(options_), batch_size, &columns_));
+  ColumnsToBatch(columns_, batch);
   return Status::Ok();
 }
 

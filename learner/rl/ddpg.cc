@@ -79,7 +79,28 @@ DdpgStats Ddpg::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
   nn::SoftUpdate(actor_.params(), options_.tau, &actor_target_.params());
   nn::SoftUpdate(critic_.params(), options_.tau, &critic_target_.params());
   if (priorities) *priorities = prio_;
+  ++updates_;
   return stats;
+}
+
+AlgorithmState Ddpg::ExportState() const {
+  AlgorithmState st;
+  st.sets = {actor_.params(), critic_.params(), actor_target_.params(), critic_target_.params()};
+  AppendAdam(actor_adam_, "actor_adam", &st);
+  AppendAdam(critic_adam_, "critic_adam", &st);
+  st.counters.push_back(updates_);
+  return st;
+}
+
+Status Ddpg::ImportState(const AlgorithmState& st) {
+  size_t next = 0, counter = 0;
+  for (nn::Mlp* net : {&actor_, &critic_, &actor_target_, &critic_target_})
+    COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &net->params()).WithContext("ddpg"));
+  COINS_RETURN_IF_ERROR(RestoreAdam(st, &next, &counter, &actor_adam_).WithContext("ddpg"));
+  COINS_RETURN_IF_ERROR(RestoreAdam(st, &next, &counter, &critic_adam_).WithContext("ddpg"));
+  if (counter >= st.counters.size()) return Errorf("ddpg: state has no update count");
+  updates_ = st.counters[counter];
+  return Status::Ok();
 }
 
 float Ddpg::ActorLossAndGrad(const Eigen::MatrixXf& obs) {

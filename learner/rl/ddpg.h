@@ -14,6 +14,7 @@
 
 #include "common/nn/adam.h"
 #include "common/nn/mlp.h"
+#include "learner/rl/algorithm_state.h"
 #include "learner/rl/batch.h"
 
 namespace coins::rl {
@@ -51,7 +52,12 @@ class Ddpg {
   float ActorLossAndGrad(const Eigen::MatrixXf& obs);
 
   nn::Mlp& actor() { return actor_; }
+  const nn::Mlp& actor() const { return actor_; }
   const DdpgOptions& options() const { return options_; }
+  int64_t updates() const { return updates_; }
+  // the whole training state (actor, critic, targets, both Adams, update count)
+  AlgorithmState ExportState() const;
+  Status ImportState(const AlgorithmState& state);
 
  private:
   void Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act);
@@ -59,6 +65,7 @@ class Ddpg {
   DdpgOptions options_;
   nn::Mlp actor_, critic_, actor_target_, critic_target_;
   nn::Adam actor_adam_, critic_adam_;
+  int64_t updates_ = 0;
   Batch batch_;
   Eigen::MatrixXf sa_, act_, y_, d_, da_, prio_;
 };

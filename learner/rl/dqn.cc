@@ -148,6 +148,24 @@ DqnStats Dqn::LossAndGrad(const Batch& batch) {
   return stats;
 }
 
+AlgorithmState Dqn::ExportState() const {
+  AlgorithmState st;
+  st.sets = {online_.params(), target_.params()};
+  AppendAdam(adam_, "adam", &st);
+  st.counters.push_back(updates_);
+  return st;
+}
+
+Status Dqn::ImportState(const AlgorithmState& st) {
+  size_t next = 0, counter = 0;
+  COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &online_.params()).WithContext("dqn"));
+  COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &target_.params()).WithContext("dqn"));
+  COINS_RETURN_IF_ERROR(RestoreAdam(st, &next, &counter, &adam_).WithContext("dqn"));
+  if (counter >= st.counters.size()) return Errorf("dqn: state has no update count");
+  updates_ = st.counters[counter];
+  return Status::Ok();
+}
+
 Result<DqnStats> Dqn::Train(BatchSource* source) {
   COINS_RETURN_IF_ERROR(source->Sample(options_.batch_size, &batch_).WithContext("dqn"));
   DqnStats stats = Update(batch_, &chosen_);

@@ -18,6 +18,7 @@
 
 #include "common/nn/adam.h"
 #include "common/nn/mlp.h"
+#include "learner/rl/algorithm_state.h"
 #include "learner/rl/batch.h"
 
 namespace coins::rl {
@@ -72,6 +73,9 @@ class Dqn {
   const nn::Mlp& online() const { return online_; }
   int64_t updates() const { return updates_; }
   const DqnOptions& options() const { return options_; }
+  // the whole training state (online, target, Adam, update count) for checkpoints
+  AlgorithmState ExportState() const;
+  Status ImportState(const AlgorithmState& state);
 
  private:
   int atoms() const { return options_.distributional ? options_.atoms : 1; }

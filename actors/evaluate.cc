@@ -1,0 +1,77 @@
+#include "actors/evaluate.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "actors/actor.h"
+
+namespace coins {
+
+namespace {
+
+class DiscardRows final : public RowSink {
+ public:
+  void Row(int, std::span<const float>, std::span<const float>, std::span<const float>, float, uint16_t, uint8_t,
+           uint32_t) override {}
+};
+
+void Summarise(EvalResult* r) {
+  if (r->returns.empty()) return;
+  double sum = 0, sq = 0;
+  for (double x : r->returns) sum += x;
+  r->return_mean = sum / double(r->returns.size());
+  for (double x : r->returns) sq += (x - r->return_mean) * (x - r->return_mean);
+  r->return_sd = std::sqrt(sq / double(r->returns.size()));
+}
+
+}  // namespace
+
+Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int acting, const EvalOptions& o,
+                            const std::function<void(const EvalStep&)>& on_step) {
+  if (acting < 1 || acting > models.contiguous()) return Errorf("evaluate: level {} has no model", acting);
+  const bool task = models.at(acting)->spec().is_task();
+  int action_dim = 1, goal_dim = 0;
+  Actor::RowWidths(env.spec(), &action_dim, &goal_dim);
+  HierarchyRunner runner(env.spec(), action_dim, goal_dim, o.seed ^ 0x6576616cULL);
+  runner.Configure(&models, acting, /*explore=*/false);
+  DiscardRows rows;
+  const size_t dim = size_t(env.spec().state_dim());
+  std::vector<float> state(dim), next(dim), action(size_t(env.spec().action.dim));
+  EvalResult r;
+  const int skill_level = task ? acting - 1 : acting;
+  for (int ep = 0; ep < (task ? o.episodes : 1 << 30); ++ep) {
+    env.Reset(o.seed + uint64_t(ep), state);
+    runner.StartEpisode(state, &rows);
+    double ret = 0;
+    bool over = false;
+    for (int64_t t = 0; t < o.max_steps && !over; ++t) {
+      runner.Decide(state, action);
+      envs::StepResult sr;
+      COINS_RETURN_IF_ERROR(env.Step(action, next, &sr).WithContext("evaluate"));
+      runner.Observe(state, action, next, sr.reward, sr.done || sr.truncated, sr.truncated, sr.interactions, &rows);
+      if (on_step) on_step({ep, state, action, next, &sr});
+      ret += sr.reward;
+      ++r.steps;
+      over = sr.done || sr.truncated;
+      std::swap(state, next);
+      if (!task && runner.counters().goals_ended[skill_level - 1] >= uint64_t(o.episodes)) break;
+      if (!task && over) {
+        env.ResetNext(state);
+        runner.StartEpisode(state, &rows);
+        over = false;
+      }
+      if (!task && r.steps >= o.max_steps) break;
+    }
+    if (task) r.returns.push_back(ret);
+    if (!task) break;
+  }
+  if (skill_level >= 1) {
+    r.goals_ended = runner.counters().goals_ended[skill_level - 1];
+    r.goals_reached = runner.counters().goals_reached[skill_level - 1];
+    r.success = r.goals_ended ? double(r.goals_reached) / double(r.goals_ended) : 0.0;
+  }
+  Summarise(&r);
+  return r;
+}
+
+}  // namespace coins

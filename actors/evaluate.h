@@ -1,0 +1,45 @@
+// Evaluation of a hierarchy: greedy rollouts in an env of one's own (the learner's periodic
+// evaluations, `coins eval`, the final GIF of `coins run`).
+//
+// Task (the acting level is the task): `episodes` episodes, each from Reset(seed + i) (a fresh
+// board), until the env ends it or max_steps; the return is the sum of env rewards.
+// Skill (the acting level is a skill): its goals drawn at random, until `episodes` goals ended
+// or max_steps in all; success is the fraction reached (for a link whose skill needs an
+// interaction: reached at an interaction, the ball-angle accuracy in Breakout).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "actors/envs/env.h"
+#include "actors/hierarchy.h"
+
+namespace coins {
+
+struct EvalOptions {
+  int episodes = 20;
+  int64_t max_steps = 20000;  // per task episode; in all for a skill
+  uint64_t seed = 1;
+};
+
+struct EvalResult {
+  std::vector<double> returns;    // task: one per episode
+  double return_mean = 0, return_sd = 0;
+  uint64_t goals_ended = 0, goals_reached = 0;  // the acting skill's (task: the top skill's)
+  double success = 0;             // goals_reached / goals_ended
+  int64_t steps = 0;
+};
+
+// one step of an evaluation, for recorders (rollout files, pictures)
+struct EvalStep {
+  int episode = 0;
+  std::span<const float> state, action, next;
+  const envs::StepResult* result = nullptr;
+};
+
+Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int acting, const EvalOptions& options,
+                            const std::function<void(const EvalStep&)>& on_step = {});
+
+}  // namespace coins

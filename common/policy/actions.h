@@ -1,0 +1,27 @@
+// What a level's action means: a primitive action for the env (level 1), or a goal for the
+// level below (levels >= 2), and how goals are drawn at random for the skill being trained.
+#pragma once
+
+#include <random>
+
+#include "common/policy/level_spec.h"
+
+namespace coins::policy {
+
+// the env action of a level whose actions are primitive: discrete index as a float, or a in
+// [-1, 1]^d scaled to action_low/high
+void ToPrimitiveAction(const LevelSpec& level, const float* action, float* env_action);
+
+// the child's goal (masked values, env units) chosen by `parent`'s action in `state`:
+// a discrete child goal by index; or child value + a * child_ratio * (high - low), with a the
+// continuous action or child_offsets[index], clipped to the child's bounds
+void ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* action, const float* state,
+                 float* child_goal);
+
+// a uniformly random goal of the space: one of the discrete goals, or uniform within the bounds
+void RandomGoal(const GoalSpace& goal, std::mt19937_64* rng, float* out);
+
+// a uniformly random action of the level (before any weights exist)
+void RandomAction(const LevelSpec& level, std::mt19937_64* rng, float* action);
+
+}  // namespace coins::policy

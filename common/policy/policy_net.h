@@ -1,0 +1,63 @@
+// Observations and network inference of one hierarchy level, for actors and evaluation.
+//
+// GatherFeatures/BuildObservation turn a full state (or the obs_index features a replay sample
+// carries) into the level's observation (common/policy/level_spec.h). PolicyNet is the acting
+// network of a level: for dqn the online Q-network (Mlp, dueling and distributional heads as
+// learner/rl/dqn.h builds them, so their weight blobs are interchangeable), for ddpg the
+// deterministic actor (Mlp with tanh outputs, as learner/rl/ddpg.h). After the first call Act
+// allocates nothing. A PolicyNet is used by one thread at a time.
+#pragma once
+
+#include <cstdint>
+#include <random>
+#include <span>
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "common/nn/mlp.h"
+#include "common/policy/level_spec.h"
+
+namespace coins::policy {
+
+// features[i] = state[spec.obs_index[i]]
+void GatherFeatures(const LevelSpec& spec, const float* state, float* features);
+// obs (spec.obs_dim()) from gathered features and the level's goal (masked values, env units;
+// unused for the task)
+void BuildObservation(const LevelSpec& spec, const float* features, const float* goal, float* obs);
+// the same for B columns at once: features (obs_index.size() x B), goals (goal.dim() x B)
+void BuildObservations(const LevelSpec& spec, const Eigen::Ref<const Eigen::MatrixXf>& features,
+                       const Eigen::Ref<const Eigen::MatrixXf>& goals, Eigen::MatrixXf* obs);
+
+// the Mlp sizes and activations of a level's acting network
+nn::MlpOptions ActingNetworkOptions(const LevelSpec& spec);
+
+class PolicyNet {
+ public:
+  PolicyNet() = default;
+  // an untrained network of the spec's shape (the spec must be valid)
+  static Result<PolicyNet> Create(const LevelSpec& spec, uint64_t seed = 0);
+
+  const LevelSpec& spec() const { return spec_; }
+  nn::ParamSet& params() { return net_.params(); }
+  const nn::ParamSet& params() const { return net_.params(); }
+  // loads a weights blob (common/nn/serialize.h) whose blocks match this network
+  Status Load(std::span<const uint8_t> blob, const std::string& source);
+
+  // one observation -> action. Discrete: action[0] = the index (epsilon-greedy with `explore`);
+  // continuous: action_dim values in [-1, 1] (Gaussian noise of std `explore`, clipped).
+  void Act(const float* obs, float explore, std::mt19937_64* rng, float* action);
+  // action values of the last discrete Act (num_actions)
+  const Eigen::VectorXf& last_q() const { return q_; }
+
+ private:
+  void QValues(const float* obs);
+
+  LevelSpec spec_;
+  nn::Mlp net_;
+  Eigen::VectorXf support_;
+  Eigen::MatrixXf head_, q_block_;
+  Eigen::VectorXf q_;
+};
+
+}  // namespace coins::policy

@@ -1,0 +1,136 @@
+// LearnerCore checkpoints: RUN_DIR/checkpoints/learner-epoch-N/ holding state.json (job
+// bookkeeping, versions, specs, counters), trainer-L.bin (each level's networks, targets and
+// optimiser moments, common/nn/serialize.h format) and detector-T.bin (each target's newest
+// detector). The directory is written under a temporary name and renamed whole.
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "common/files.h"
+#include "common/nn/serialize.h"
+#include "learner/learner_core.h"
+
+namespace coins {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::vector<uint8_t> StateBlob(const rl::AlgorithmState& st) {
+  std::vector<const nn::ParamSet*> sets;
+  for (const auto& s : st.sets) sets.push_back(&s);
+  return nn::ToBlob(std::span<const nn::ParamSet* const>(sets.data(), sets.size()));
+}
+
+// reads a blob into sets shaped like `shape` (the trainer's own current state)
+Status LoadStateBlob(std::span<const uint8_t> blob, rl::AlgorithmState* shape, const std::string& source) {
+  std::vector<nn::ParamSet*> sets;
+  for (auto& s : shape->sets) sets.push_back(&s);
+  return nn::FromBlob(blob, std::span<nn::ParamSet* const>(sets.data(), sets.size()), source);
+}
+
+}  // namespace
+
+Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint64_t command_id) {
+  const std::string tmp = dir + ".tmp";
+  std::error_code ec;
+  fs::remove_all(tmp, ec);
+  fs::create_directories(tmp, ec);
+  if (ec) return Errorf("{}: cannot create: {}", tmp, ec.message());
+  json j = {{"format", 1},
+            {"epoch", epoch},
+            {"command_id", command_id},
+            {"generation", generation_},
+            {"command_seq", command_.seq()},
+            {"train_level", train_level_},
+            {"job_start_updates", job_start_updates_},
+            {"detect_done_seq", detect_done_seq_},
+            {"next_eval_at", next_eval_at_},
+            {"next_retrain_at", next_retrain_at_},
+            {"total_updates", status_.total_updates()},
+            {"counters", counters_}};
+  for (const auto& [level, t] : trainers_) {
+    const rl::AlgorithmState st = t->ExportState();
+    const std::string file = "trainer-" + std::to_string(level) + ".bin";
+    COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/" + file, StateBlob(st)));
+    j["trainers"].push_back({{"level", level}, {"spec", ToJson(t->spec())}, {"counters", st.counters}, {"file", file}});
+  }
+  for (const auto& [target, d] : detectors_) {
+    if (!d.det) continue;
+    const std::string file = "detector-" + target + ".bin";
+    COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/" + file, d.det->WeightsBlob()));
+    j["detectors"].push_back({{"target", target}, {"spec", detector::ToJson(d.spec)}, {"file", file}});
+  }
+  for (const auto& [name, w] : published_)
+    j["published"].push_back({{"name", name}, {"version", w.version()}, {"checksum", w.checksum()}});
+  j["eval"] = {{"env_steps", status_.eval_env_steps()}, {"return_mean", status_.eval_return_mean()},
+               {"return_sd", status_.eval_return_sd()}, {"episodes", status_.eval_episodes()},
+               {"success", status_.eval_success()}, {"angle_accuracy", status_.eval_angle_accuracy()}};
+  COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/state.json", j.dump(1)));
+  COINS_RETURN_IF_ERROR(ReplaceDirectory(tmp, dir));
+  status_.checkpoint_epoch(epoch);
+  status_.checkpoint_command(command_id);
+  return Status::Ok();
+}
+
+Status LearnerCore::LoadCheckpoint(const std::string& dir) {
+  auto text = ReadFileText(dir + "/state.json");
+  if (!text.ok()) return text.status();
+  json j = json::parse(*text, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || j.value("format", 0) != 1)
+    return Errorf("{}/state.json: not a learner checkpoint", dir);
+  try {
+    trainers_.clear();
+    for (const auto& tj : j.value("trainers", json::array())) {
+      auto spec = policy::LevelSpecFromJson(tj.at("spec"));
+      if (!spec.ok()) return spec.status().WithContext(dir);
+      const int level = tj.at("level").get<int>();
+      auto t = PolicyTrainer::Create(*spec, Group(level, spec->is_task()), seed_ + 1000 * uint64_t(level));
+      if (!t.ok()) return t.status().WithContext(dir);
+      auto blob = ReadFileBytes(dir + "/" + tj.at("file").get<std::string>());
+      if (!blob.ok()) return blob.status();
+      rl::AlgorithmState st = (*t)->ExportState();
+      COINS_RETURN_IF_ERROR(LoadStateBlob(*blob, &st, dir + "/" + tj.at("file").get<std::string>()));
+      st.counters = tj.at("counters").get<std::vector<int64_t>>();
+      COINS_RETURN_IF_ERROR((*t)->ImportState(st).WithContext(dir));
+      trainers_[level] = std::move(*t);
+    }
+    detectors_.clear();
+    for (const auto& dj : j.value("detectors", json::array())) {
+      auto spec = detector::DetectorSpecFromJson(dj.at("spec"));
+      if (!spec.ok()) return spec.status().WithContext(dir);
+      auto det = detector::PairDetector::Create(spec->layout, spec->options);
+      if (!det.ok()) return det.status().WithContext(dir);
+      auto blob = ReadFileBytes(dir + "/" + dj.at("file").get<std::string>());
+      if (!blob.ok()) return blob.status();
+      COINS_RETURN_IF_ERROR(det->LoadWeights(*blob));
+      detectors_[dj.at("target").get<std::string>()] = {*spec, std::make_unique<detector::PairDetector>(std::move(*det))};
+    }
+    counters_ = j.at("counters").get<std::map<std::string, uint64_t>>();
+    generation_ = j.at("generation").get<uint64_t>() + 1;
+    command_.seq(j.at("command_seq").get<uint64_t>());
+    train_level_ = j.at("train_level").get<int>();
+    job_start_updates_ = j.at("job_start_updates").get<int64_t>();
+    detect_done_seq_ = j.at("detect_done_seq").get<uint64_t>();
+    next_eval_at_ = j.at("next_eval_at").get<uint64_t>();
+    next_retrain_at_ = j.at("next_retrain_at").get<uint64_t>();
+    status_.total_updates(j.at("total_updates").get<uint64_t>());
+    status_.checkpoint_epoch(j.at("epoch").get<uint64_t>());
+    status_.checkpoint_command(j.at("command_id").get<uint64_t>());
+    const json& e = j.at("eval");
+    status_.eval_env_steps(e.at("env_steps").get<uint64_t>());
+    status_.eval_return_mean(e.at("return_mean").get<double>());
+    status_.eval_return_sd(e.at("return_sd").get<double>());
+    status_.eval_episodes(e.at("episodes").get<uint32_t>());
+    status_.eval_success(e.at("success").get<double>());
+    status_.eval_angle_accuracy(e.at("angle_accuracy").get<double>());
+  } catch (const json::exception& ex) {
+    return Errorf("{}/state.json: {}", dir, ex.what());
+  }
+  has_command_ = false;  // the orchestrator's command (re)starts the job; the same seq continues it
+  published_.clear();
+  return Status::Ok();
+}
+
+}  // namespace coins

@@ -1,0 +1,105 @@
+// LearnerCore: the learner's work without DDS. It follows ChainCommands (orchestrator/README.md):
+// detect rounds over replay samples, training of the newest skill or of the task, periodic
+// greedy evaluations and detector retraining, and says what to publish (InteractionScores,
+// PolicyWeights) and how it is doing (LearnerStatus). coins-learner wires it to DDS; tests and
+// in-process tools wire it to replay services in the same process.
+//
+// Weights versions are (generation << 40) | counter, where the generation grows with every
+// start from a checkpoint, so that weights published after a restart are always newer than any
+// published before it. One thread at a time.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "actors/hierarchy.h"
+#include "common/env_spec.h"
+#include "common/policy/level_spec.h"
+#include "detector/detector_spec.h"
+#include "idl/control.h"
+#include "idl/transition.h"
+#include "idl/status.h"
+#include "idl/weights.h"
+#include "learner/learner_options.h"
+#include "learner/replay_client/sample_source.h"
+#include "learner/trainers/detect_round.h"
+#include "learner/trainers/policy_trainer.h"
+
+namespace coins {
+
+class LearnerCore {
+ public:
+  LearnerCore(envs::EnvSpec env, LearnerOptions options, uint64_t seed);
+  ~LearnerCore();
+
+  struct Outputs {
+    std::vector<msg::InteractionScores> scores;
+    std::vector<msg::PolicyWeights> weights;
+  };
+  // follows a new command (a seq already followed is ignored); weights to publish right away
+  // (the new level's spec and its link's detector) go to out
+  Status OnCommand(const msg::ChainCommand& cmd, Outputs* out);
+  // one slice of work: a detect round, or one update of the level being trained when the
+  // pacing allows (env_steps: every actor's steps so far), plus an evaluation or a detector
+  // retrain when due. Returns false when there was nothing to do.
+  Result<bool> Work(SampleSource* source, uint64_t env_steps, Outputs* out);
+
+  msg::LearnerStatus status() const { return status_; }
+  // the newest published weights of every name (to republish after a restart)
+  std::vector<msg::PolicyWeights> Latest() const;
+  uint64_t command_seq() const { return command_.seq(); }
+
+  // checkpoints: a directory written whole or not at all
+  Status SaveCheckpoint(const std::string& dir, uint64_t epoch, uint64_t command_id);
+  // loads a checkpoint and starts a new generation of weights versions
+  Status LoadCheckpoint(const std::string& dir);
+
+  // the acting models of levels 1..n as actors would hold them (evaluation)
+  Result<std::unique_ptr<HierarchyModels>> Models(int levels) const;
+  // the trainer of a level (null when none)
+  PolicyTrainer* trainer(int level) const;
+
+ private:
+  struct LinkDetector {
+    detector::DetectorSpec spec;
+    std::unique_ptr<detector::PairDetector> det;
+  };
+  const LevelTrainOptions& Group(int level, bool task) const;
+  Status BuildLevels(const msg::ChainCommand& cmd);
+  Status EnsureTrainer(int level);
+  msg::PolicyWeights Publish(const std::string& name, const std::string& spec, std::vector<uint8_t> blob,
+                             uint64_t learner_step);
+  void PublishLevel(int level, Outputs* out);
+  void PublishDetector(const std::string& target, Outputs* out);
+  Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
+  Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
+  Status Evaluate(uint64_t env_steps);
+  Status RetrainDetector(SampleSource* source, uint64_t env_steps, Outputs* out);
+  void RecordLag(const SampleColumns& c, int level);
+  DetectRoundOptions RoundOptions() const;
+
+  envs::EnvSpec env_;
+  LearnerOptions options_;
+  uint64_t seed_;
+  msg::ChainCommand command_;
+  bool has_command_ = false;
+  std::vector<policy::LevelSpec> specs_;                      // index level - 1
+  std::map<int, std::unique_ptr<PolicyTrainer>> trainers_;    // by level
+  std::map<std::string, LinkDetector> detectors_;             // by target: newest of each
+  std::map<std::string, msg::PolicyWeights> published_;       // by name: newest
+  std::map<std::string, uint64_t> counters_;                  // by name: versions published
+  uint64_t generation_ = 0;
+  int train_level_ = 0;                                       // level being trained (0: none)
+  int64_t job_start_updates_ = 0;
+  uint64_t detect_done_seq_ = 0;
+  uint64_t next_eval_at_ = 0, next_retrain_at_ = 0;
+  std::deque<double> lags_;
+  double loss_ = 0;
+  msg::LearnerStatus status_;
+};
+
+}  // namespace coins

@@ -1,0 +1,112 @@
+#include "learner/learner_options.h"
+
+#include <cmath>
+
+namespace coins {
+
+void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
+  v.String(p + "algorithm", algorithm, {"dqn", "ddpg"}, "dqn (discrete actions) | ddpg (continuous)");
+  v.FloatList(p + "hidden", hidden, "hidden layer sizes");
+  v.Float(p + "lr", lr, 1e-7, 1, "learning rate");
+  v.Int(p + "batch", batch, 1, 4096, "samples per update");
+  v.Int(p + "n_step", n_step, 1, 100, "n-step returns");
+  v.Float(p + "gamma", gamma, 0, 1, "discount");
+  v.Int(p + "target_update", target_update, 1, 1 << 24, "dqn: updates between target copies");
+  v.Float(p + "tau", tau, 1e-6, 1, "ddpg: Polyak factor");
+  v.Int(p + "atoms", atoms, 1, 1001, "dqn: distributional atoms (1: expected values)");
+  v.Float(p + "v_min", v_min, -1e6, 1e6, "dqn: lowest return of the support");
+  v.Float(p + "v_max", v_max, -1e6, 1e6, "dqn: highest return of the support");
+  v.Bool(p + "dueling", dueling, "dqn: dueling heads");
+  v.Float(p + "explore", explore, 0, 1, "acting: dqn epsilon / ddpg noise std");
+  v.String(p + "her", her, {"none", "final", "future"}, "hindsight strategy");
+  v.Float(p + "her_ratio", her_ratio, 0, 1, "fraction of samples relabelled");
+  v.Bool(p + "prioritized", prioritized, "prioritised sampling");
+  v.Float(p + "priority_alpha", priority_alpha, 0, 10, "priority exponent");
+  v.Float(p + "step_reward", step_reward, -1e6, 1e6, "reward of a step without success");
+  v.Float(p + "success_reward", success_reward, -1e6, 1e6, "reward of the step reaching the goal");
+  v.Float(p + "interaction_reward", interaction_reward, -1e6, 1e6, "reward of a link interaction without success");
+  v.Float(p + "goal_epsilon", goal_epsilon, 0, 2, "continuous goals: reached within (normalised units)");
+  v.Int(p + "timeout", timeout, 1, 1 << 20, "env steps before a goal times out");
+  v.Int(p + "decision_period", decision_period, 0, 1 << 20, "env steps per action at most (0: child's goal)");
+  v.FloatList(p + "child_offsets", child_offsets, "continuous 1-d child goals as discrete offsets (dqn)");
+  v.Float(p + "child_ratio", child_ratio, 1e-6, 10, "child goal offsets scale, fraction of the range");
+  v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
+}
+
+Status LevelTrainOptions::Validate(const std::string& p) const {
+  if (hidden.empty()) return Errorf("{}hidden needs at least one layer", p);
+  for (double h : hidden)
+    if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}hidden: {} is not a layer size", p, h);
+  if (atoms > 1 && !(v_max > v_min)) return Errorf("{}v_max {} must exceed {}v_min {}", p, v_max, p, v_min);
+  for (double o : child_offsets)
+    if (!(o >= -1 && o <= 1)) return Errorf("{}child_offsets: {} is not in [-1, 1]", p, o);
+  if (child_offsets.size() == 1) return Errorf("{}child_offsets needs at least 2 entries (or none)", p);
+  return Status::Ok();
+}
+
+LevelTrainOptions LearnerOptions::Primitive() { return LevelTrainOptions{}; }
+
+LevelTrainOptions LearnerOptions::Skill() {
+  LevelTrainOptions o;
+  o.hidden = {128, 128, 128};
+  o.lr = 5e-4;
+  o.batch = 128;
+  o.n_step = 5;
+  o.target_update = 500;
+  o.v_min = -1;
+  o.v_max = 1.5;
+  o.explore = 0.1;
+  o.her = "final";
+  o.her_ratio = 0.3;
+  o.step_reward = -0.01;
+  o.success_reward = 1;
+  o.interaction_reward = 0.3;
+  o.timeout = 300;
+  o.decision_period = 3;
+  o.child_offsets = {-1, -0.5, 0, 0.5, 1};
+  return o;
+}
+
+LevelTrainOptions LearnerOptions::Task() {
+  LevelTrainOptions o;
+  o.hidden = {128, 128, 128};
+  o.lr = 3e-4;
+  o.batch = 128;
+  o.n_step = 5;
+  o.target_update = 500;
+  o.v_min = -20;
+  o.v_max = 40;
+  o.explore = 0.1;
+  o.her = "none";
+  o.her_ratio = 0;
+  o.step_reward = 0;
+  o.timeout = 1000;
+  return o;
+}
+
+void LearnerOptions::Visit(ConfigVisitor& v) {
+  v.Float("status_period_s", status_period_s, 0.05, 3600, "status period (s)");
+  primitive.Visit(v, "primitive_");
+  skill.Visit(v, "skill_");
+  task.Visit(v, "task_");
+  v.Int("detect_max_samples", detect_max_samples, 100, int64_t(1) << 30, "samples per detect target at most");
+  v.Int("detect_max_floats", detect_max_floats, 1000, int64_t(1) << 34, "sampled floats per detect target at most");
+  v.Float("detect_holdout", detect_holdout, 0.01, 0.9, "held-out fraction scored");
+  v.Int("detect_passive_steps", detect_passive_steps, 1, 1 << 24, "passive model Adam steps");
+  v.Int("detect_active_steps", detect_active_steps, 1, 1 << 24, "active model Adam steps");
+  v.Float("detect_eps_si", detect_eps_si, -1e6, 1e6, "Sc_I threshold reported as pass");
+  v.Int("detector_retrain_steps", detector_retrain_steps, 0, int64_t(1) << 40, "env steps between detector retrains");
+  v.Int("eval_every_steps", eval_every_steps, 1, int64_t(1) << 40, "env steps between evaluations");
+  v.Int("eval_episodes", eval_episodes, 1, 100000, "episodes (or goals) per evaluation");
+  v.Int("eval_max_steps", eval_max_steps, 1, int64_t(1) << 30, "env steps per evaluation episode at most");
+  v.Int("checkpoint_keep", checkpoint_keep, 1, 1000, "learner checkpoints kept");
+}
+
+Status LearnerOptions::Validate() const {
+  COINS_RETURN_IF_ERROR(primitive.Validate("primitive_"));
+  COINS_RETURN_IF_ERROR(skill.Validate("skill_"));
+  COINS_RETURN_IF_ERROR(task.Validate("task_"));
+  return Status::Ok();
+}
+
+}  // namespace coins

@@ -1,0 +1,161 @@
+#include "learner/trainers/level_builder.h"
+
+#include <algorithm>
+
+#include "detector/detector_spec.h"
+
+namespace coins {
+
+namespace {
+
+using policy::ActionKind;
+using policy::GoalKind;
+using policy::LevelSpec;
+
+// the factor's features appended to the observation
+void AddFactor(const envs::EnvSpec& env, int f, LevelSpec* s) {
+  const envs::FactorSpec& fs = env.factors[size_t(f)];
+  const int offset = env.factor_offset(f);
+  for (int i = 0; i < fs.size(); ++i) {
+    const int k = i % fs.features;
+    s->obs_index.push_back(offset + i);
+    s->obs_low.push_back(fs.low[size_t(k)]);
+    s->obs_high.push_back(fs.high[size_t(k)]);
+  }
+}
+
+// relative positions of two single factors already in the observation (positions into obs_index)
+void AddRelative(const envs::EnvSpec& env, int fa, int fb, LevelSpec* s) {
+  if (fa < 0 || fb < 0) return;
+  const envs::FactorSpec &a = env.factors[size_t(fa)], &b = env.factors[size_t(fb)];
+  const int oa = env.factor_offset(fa), ob = env.factor_offset(fb);
+  auto pos = [&](int full) { return int(std::find(s->obs_index.begin(), s->obs_index.end(), full) - s->obs_index.begin()); };
+  for (int i = 0; i < a.features; ++i) {
+    const std::string& n = a.feature_names[size_t(i)];
+    if (n != "x" && n != "y" && n != "z") continue;
+    for (int j = 0; j < b.features; ++j)
+      if (b.feature_names[size_t(j)] == n) {
+        s->relative.emplace_back(pos(oa + i), pos(ob + j));
+        s->relative_scale.push_back(0.5f * (b.high[size_t(j)] - b.low[size_t(j)]));
+      }
+  }
+}
+
+void SetNetwork(const LevelTrainOptions& o, LevelSpec* s) {
+  s->algorithm = o.algorithm;
+  s->hidden.assign(o.hidden.begin(), o.hidden.end());
+  s->activation = nn::Activation::kRelu;
+  s->dueling = o.dueling;
+  s->atoms = int(o.atoms);
+  s->v_min = float(o.v_min);
+  s->v_max = float(o.v_max);
+  s->explore = float(o.explore);
+  s->timeout = int(o.timeout);
+  s->decision_period = int(o.decision_period);
+  s->child_ratio = float(o.child_ratio);
+}
+
+// actions that are goals of `child`
+Status SetChildActions(const policy::LevelSpec& child, const LevelTrainOptions& o, LevelSpec* s) {
+  if (child.goal.kind == GoalKind::kDiscrete) {
+    s->action_kind = ActionKind::kChildDiscrete;
+    s->num_actions = int(child.goal.goals.size());
+    s->algorithm = "dqn";
+    return Status::Ok();
+  }
+  if (!o.child_offsets.empty() && child.goal.dim() == 1) {
+    s->action_kind = ActionKind::kChildOffsets;
+    s->child_offsets.assign(o.child_offsets.begin(), o.child_offsets.end());
+    s->num_actions = int(o.child_offsets.size());
+    s->algorithm = "dqn";
+    return Status::Ok();
+  }
+  s->action_kind = ActionKind::kChildContinuous;
+  s->action_dim = child.goal.dim();
+  s->algorithm = "ddpg";
+  return Status::Ok();
+}
+
+Status SetGoalSpace(const envs::EnvSpec& env, const msg::LinkSpec& link, const LevelTrainOptions& o, LevelSpec* s) {
+  auto goal = policy::MakeGoalSpace(env, link.target(), link.mask());
+  if (!goal.ok()) return goal.status();
+  s->goal = std::move(*goal);
+  const int d = s->goal.dim();
+  const auto& set = link.goal_set();
+  const float half = 0.5f * (s->goal.scale_high[0] - s->goal.scale_low[0]);
+  if (link.goal_kind() == "discrete") {
+    if (set.empty() || set.size() % size_t(d) != 0)
+      return Errorf("link {}->{}: discrete goal set of {} values for {} masked features", link.source(), link.target(),
+                    set.size(), d);
+    s->goal.kind = GoalKind::kDiscrete;
+    for (size_t i = 0; i < set.size(); i += size_t(d)) s->goal.goals.emplace_back(set.begin() + long(i), set.begin() + long(i) + d);
+    s->goal.epsilon = 1e-3f * half;  // discrete goals are met exactly
+    s->goal.norm = GoalNorm::kLinf;
+    return Status::Ok();
+  }
+  if (link.goal_kind() != "continuous" || set.size() != size_t(2 * d))
+    return Errorf("link {}->{}: goal kind '{}' with {} values for {} masked features", link.source(), link.target(),
+                  link.goal_kind(), set.size(), d);
+  s->goal.kind = GoalKind::kContinuous;
+  s->goal.low.assign(set.begin(), set.begin() + d);
+  s->goal.high.assign(set.begin() + d, set.end());
+  s->goal.epsilon = float(o.goal_epsilon) * half;
+  s->goal.norm = GoalNorm::kLinf;
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& link, int level,
+                                 const LevelSpec* child, const LevelTrainOptions& o) {
+  LevelSpec s;
+  s.name = "skill/" + link.target();
+  s.level = level;
+  s.source = link.source();
+  SetNetwork(o, &s);
+  COINS_RETURN_IF_ERROR(SetGoalSpace(env, link, o, &s).WithContext("level " + std::to_string(level)));
+  const int fs = link.source() == "Action" ? -1 : env.factor_index(link.source());
+  const int ft = env.factor_index(link.target());
+  if (link.source() != "Action" && fs < 0) return Errorf("env '{}' has no factor '{}'", env.name, link.source());
+  if (fs >= 0) AddFactor(env, fs, &s);
+  AddFactor(env, ft, &s);
+  AddRelative(env, fs, ft, &s);
+  if (level == 1) {
+    const envs::ActionSpec& a = env.action;
+    s.action_kind = a.discrete ? ActionKind::kPrimitiveDiscrete : ActionKind::kPrimitiveContinuous;
+    s.num_actions = a.discrete ? a.n : 0;
+    s.action_dim = a.discrete ? 1 : a.dim;
+    s.action_low = a.low;
+    s.action_high = a.high;
+    s.algorithm = a.discrete ? "dqn" : "ddpg";
+    s.decision_period = 1;
+  } else {
+    if (!child) return Errorf("level {} needs the spec of level {}", level, level - 1);
+    COINS_RETURN_IF_ERROR(SetChildActions(*child, o, &s));
+  }
+  if (SparseLink(link)) {
+    s.terminate_on_interaction = s.require_interaction = true;
+    s.detector = detector::DetectorWeightsName(link.source(), link.target());
+  }
+  COINS_RETURN_IF_ERROR(s.Validate());
+  return s;
+}
+
+Result<LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const LevelSpec& top, const LevelTrainOptions& o) {
+  LevelSpec s;
+  s.name = "task";
+  s.level = top.level + 1;
+  SetNetwork(o, &s);
+  s.decision_period = 0;
+  for (int f = 0; f < int(env.factors.size()); ++f) {
+    const std::string& n = env.factors[size_t(f)].name;
+    if (n != "Action" && n != "Done" && n != "Reward") AddFactor(env, f, &s);
+  }
+  const int fs = top.source == "Action" ? -1 : env.factor_index(top.source);
+  AddRelative(env, fs, env.factor_index(top.goal.factor), &s);
+  COINS_RETURN_IF_ERROR(SetChildActions(top, o, &s));
+  COINS_RETURN_IF_ERROR(s.Validate());
+  return s;
+}
+
+}  // namespace coins

@@ -100,8 +100,7 @@ Result<std::unique_ptr<Actor>> Actor::Create(const std::string& env_name, const 
 }
 
 void Actor::Configure(const HierarchyModels* models, int acting_level, uint64_t command_seq,
-                      std::vector<uint64_t> versions) {
-  const bool restart = models != models_ || acting_level != acting_;
+                      std::vector<uint64_t> versions, bool restart) {
   models_ = models;
   acting_ = acting_level;
   command_seq_ = command_seq;

@@ -66,10 +66,11 @@ class Actor {
 
   // the hierarchy to run from the next step on: models (owned by the caller, alive while they
   // are configured), the acting level (0: random primitive actions), the command they come
-  // from and the weights version of each level (stamped on batches). Goals and decisions in
-  // flight end (GOAL_END rows) when the acting level changes.
+  // from and the weights version of each level (stamped on batches). With restart, every env
+  // opens new segments (goals and decisions start afresh): after a change of the acting level
+  // or of a level's spec. New weights of the same specs need no restart.
   void Configure(const HierarchyModels* models, int acting_level, uint64_t command_seq,
-                 std::vector<uint64_t> versions);
+                 std::vector<uint64_t> versions, bool restart);
 
   // the seed env i of this actor is reset with
   static uint64_t EnvSeed(uint64_t seed, uint32_t actor_id, uint64_t env_index);

@@ -1,4 +1,5 @@
-// coins-actor: runs environments with the current policy and streams their transitions to
+// coins-actor: runs environments with the skill hierarchy the orchestrator asks for (ChainCommand)
+// and the learner's weights, paced by the learner's updates, and streams their transitions to
 // replay shard (actor id mod run.shards) over DDS.
 #include <fstream>
 #include <optional>
@@ -8,13 +9,16 @@
 #include <spdlog/spdlog.h>
 
 #include "actors/actor.h"
+#include "actors/weights_store.h"
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "common/process.h"
 #include "common/run_options.h"
+#include "idl/controlPubSubTypes.h"
 #include "idl/statusPubSubTypes.h"
 #include "idl/transitionPubSubTypes.h"
+#include "idl/weightsPubSubTypes.h"
 
 namespace coins {
 namespace {
@@ -28,11 +32,90 @@ void WriteStatsJson(const std::string& path, const msg::ActorStats& s) {
                       {"batches", s.batches()},
                       {"transitions_published", s.transitions_published()},
                       {"payload_checksum", s.payload_checksum()},
-                      {"publish_retries", s.publish_retries()}};
+                      {"publish_retries", s.publish_retries()},
+                      {"weights_rejected", s.weights_rejected()}};
   std::string tmp = path + ".tmp";
   std::ofstream(tmp) << j.dump() << "\n";
   std::rename(tmp.c_str(), path.c_str());
 }
+
+// the chain side of an actor: the newest command, the weights, the learner's progress; applied
+// to the Actor between steps (its poll hook) and read by its pacing hook
+class ChainFollower {
+ public:
+  ChainFollower(dds::Node& node, const envs::EnvSpec& env, int64_t actor_id, int64_t actors)
+      : store_(env), actor_id_(uint64_t(actor_id)), actors_(uint64_t(actors)) {
+    auto c = node.MakeReader<msg::ChainCommandPubSubType>(dds::kChainCommandTopic, dds::LatchedReaderQos());
+    auto w = node.MakeReader<msg::PolicyWeightsPubSubType>(dds::kWeightsTopic, dds::LatchedReaderQos());
+    auto l = node.MakeReader<msg::LearnerStatusPubSubType>(dds::kLearnerStatusTopic, dds::StatusReaderQos());
+    status_ = !c.ok() ? c.status() : !w.ok() ? w.status() : l.status();
+    if (c.ok()) commands_ = *c;
+    if (w.ok()) weights_ = *w;
+    if (l.ok()) learner_ = *l;
+  }
+  const Status& status() const { return status_; }
+  uint64_t rejected() const { return store_.rejected(); }
+  uint64_t command_seq() const { return command_ ? command_->seq() : 0; }
+  int acting() const { return command_ ? int(command_->acting_level()) : 0; }
+
+  // new commands, weights and learner progress; reconfigures the actor when they change it
+  void Poll(Actor& actor) {
+    const uint64_t before_changes = store_.structure_changes(), before_seq = command_seq();
+    const int before_acting = acting();
+    commands_.TakeAll(command_scratch_, [&](const msg::ChainCommand& c, const auto&) {
+      if (c.schema_version() == msg::CHAIN_COMMAND_SCHEMA && (!command_ || c.seq() > command_->seq())) command_ = c;
+    });
+    bool weights = false;
+    weights_.TakeAll(weights_scratch_, [&](const msg::PolicyWeights& w, const auto&) {
+      if (Status s = store_.Apply(w); !s.ok()) spdlog::warn("rejected: {}", s.message());
+      else weights = true;
+    });
+    learner_.TakeAll(learner_scratch_, [&](const msg::LearnerStatus& s, const auto&) {
+      if (command_ && s.command_seq() == command_->seq()) updates_ = s.updates();
+    });
+    if (command_seq() != before_seq) updates_ = 0;
+    const bool restart = store_.structure_changes() != before_changes || acting() != before_acting;
+    if (restart || weights || command_seq() != before_seq)
+      actor.Configure(&store_.models(), acting(), command_seq(), store_.versions(), restart);
+  }
+  // this actor's share of the steps the command allows now
+  uint64_t Allowance() const {
+    if (!command_) return 0;
+    double total = double(command_->step_base()) + command_->steps_per_update() * double(updates_);
+    if (command_->step_base() == 0 && command_->steps_per_update() == 0) total = 1e18;
+    if (command_->step_limit() > 0) total = std::min(total, double(command_->step_limit()));
+    const uint64_t all = uint64_t(total);
+    return all / actors_ + (actor_id_ < all % actors_ ? 1 : 0);
+  }
+  void Fill(msg::ActorStats* stats, const ActorCounters& c) const {
+    stats->command_seq(command_seq());
+    stats->acting_level(acting());
+    std::vector<uint64_t> ended(8), reached(8);
+    for (int i = 0; i < 8; ++i) ended[size_t(i)] = c.hierarchy.goals_ended[i], reached[size_t(i)] = c.hierarchy.goals_reached[i];
+    stats->goals_started(ended);
+    stats->goals_reached(reached);
+    stats->policy_versions(store_.versions());
+    stats->weights_rejected(store_.rejected());
+    stats->paced_waits(c.paced_waits);
+    stats->detector_states(c.hierarchy.detector_states);
+    stats->detector_truth(c.hierarchy.detector_truth);
+    stats->detector_fp(c.hierarchy.detector_fp);
+    stats->detector_fn(c.hierarchy.detector_fn);
+  }
+
+ private:
+  WeightsStore store_;
+  uint64_t actor_id_, actors_;
+  Status status_;
+  dds::Reader<msg::ChainCommand> commands_;
+  dds::Reader<msg::PolicyWeights> weights_;
+  dds::Reader<msg::LearnerStatus> learner_;
+  msg::ChainCommand command_scratch_;
+  msg::PolicyWeights weights_scratch_;
+  msg::LearnerStatus learner_scratch_;
+  std::optional<msg::ChainCommand> command_;
+  uint64_t updates_ = 0;
+};
 
 }  // namespace
 
@@ -80,8 +163,17 @@ int ActorMain(int argc, char** argv) {
     spdlog::error("{}", actor.status().message());
     return 2;
   }
-  spdlog::info("env {} (state {} floats), {} envs, publishing to shard {}, steps {}", run.env,
-               (*actor)->spec().state_dim(), options.envs, shard, steps ? std::to_string(steps) : "unbounded");
+  std::unique_ptr<ChainFollower> chain;
+  if (options.follow_chain) {
+    chain = std::make_unique<ChainFollower>(**node, (*actor)->spec(), id, run.actors);
+    if (!chain->status().ok()) {
+      spdlog::error("cannot open DDS topics: {}", chain->status().message());
+      return 1;
+    }
+  }
+  spdlog::info("env {} (state {} floats), {} envs, publishing to shard {}, steps {}{}", run.env,
+               (*actor)->spec().state_dim(), options.envs, shard, steps ? std::to_string(steps) : "unbounded",
+               chain ? ", following the chain" : ", random actions");
   heartbeat->Publish("running");
 
   // status: ActorStats with the step rate over the last period
@@ -105,15 +197,21 @@ int ActorMain(int argc, char** argv) {
     stats.payload_checksum(c.payload_checksum);
     stats.publish_retries(sink.retries());
     stats.mean_episode_return(c.returns_counted ? c.return_sum / c.returns_counted : 0.0);
+    if (chain) chain->Fill(&stats, c);
   };
-  auto period = std::chrono::milliseconds(static_cast<int64_t>(options.status_period_s * 1000));
-  (*actor)->Run(steps, [] { return StopRequested(); },
-                [&](const ActorCounters& c) {
-                  fill_stats(c);
-                  stats_writer->Write(stats);
-                  heartbeat->Publish("running");
-                },
-                period);
+  Actor::Hooks hooks;
+  hooks.stop = [] { return StopRequested(); };
+  hooks.period = std::chrono::milliseconds(static_cast<int64_t>(options.status_period_s * 1000));
+  hooks.on_period = [&](const ActorCounters& c) {
+    fill_stats(c);
+    stats_writer->Write(stats);
+    heartbeat->Publish("running");
+  };
+  if (chain) {
+    hooks.poll = [&](Actor& a) { chain->Poll(a); };
+    hooks.allowance = [&] { return chain->Allowance(); };
+  }
+  (*actor)->Run(steps, hooks);
 
   heartbeat->Publish("stopping");
   bool acked = sink.Flush(std::chrono::milliseconds(static_cast<int64_t>(options.flush_timeout_s * 1000)));

@@ -18,6 +18,9 @@ struct ActorOptions {
   double status_period_s = 1.0;
   // seconds to wait at exit for the shard to acknowledge every batch
   double flush_timeout_s = 10.0;
+  // follow the orchestrator's ChainCommand (hierarchy, pacing) and the learner's weights; false:
+  // uniform random actions without pacing (transport tests and benchmarks)
+  bool follow_chain = true;
 
   void Visit(ConfigVisitor& v) {
     v.Int("envs", envs, 1, 4096, "environments per actor");
@@ -25,6 +28,7 @@ struct ActorOptions {
     v.Int("steps", steps, 0, int64_t(1) << 50, "steps per actor (0: run.steps / run.actors)");
     v.Float("status_period_s", status_period_s, 0.05, 3600, "status period (s)");
     v.Float("flush_timeout_s", flush_timeout_s, 0, 3600, "exit flush timeout (s)");
+    v.Bool("follow_chain", follow_chain, "follow ChainCommand and weights (false: random actions, no pacing)");
   }
   Status Validate() const {
     if (batch_rows == 1) return Errorf("batch_rows 1 leaves no room for a transition after the context row");

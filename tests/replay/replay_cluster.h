@@ -46,7 +46,9 @@ struct ReplayCluster {
     for (int i = 0; i < actors_n; ++i) {
       std::string name = "actor-" + std::to_string(i);
       auto argv = Common("coins-actor", name, i);
-      argv.insert(argv.end(), {"--set", "actor.steps=" + std::to_string(steps), "--set", "actor.batch_rows=64",
+      // no orchestrator here: random actions, no chain pacing
+      argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=" + std::to_string(steps),
+                               "--set", "actor.batch_rows=64",
                                "--set", "actor.envs=2", "--set", "run.seed=" + std::to_string(11 + i)});
       if (steps == 0) argv.insert(argv.end(), {"--set", "run.steps=0"});
       auto c = ChildProcess::Spawn(name, argv, (dir / (name + ".log")).string());

@@ -206,13 +206,18 @@ void HierarchyRunner::Observe(std::span<const float> state, std::span<const floa
   DetectInteractions(state, env_action, next, interactions);
   EndGoals(next, done);
   EmitRows(next, env_action, reward, done, truncated, interactions, sink);
-  // goals that ended: counted, then dropped (a new one is chosen at the next decision)
+  // goals that ended are dropped (a new one is chosen at the next decision) and counted as
+  // attempts when they ended on their own (reached, an interaction, the timeout); a goal cut by
+  // the episode's end counts as a failed attempt only for a level whose goals are attempts at
+  // an interaction (the ball skill that lets the ball drop), not for one whose target simply
+  // stopped (the paddle when the ball drops); a goal its parent replaced is not counted
   for (int L = 1; L <= acting_; ++L) {
     const Ends& e = ends_[size_t(L) - 1];
     LevelState& ls = levels_[size_t(L) - 1];
     if (!is_skill(L) || !ls.has_goal || !e.goal_end) continue;
-    counters_.goals_ended[L - 1]++;
-    counters_.goals_reached[L - 1] += e.success;
+    const bool attempt = e.natural || (done && models_->at(L)->spec().terminate_on_interaction);
+    counters_.goals_ended[L - 1] += attempt;
+    counters_.goals_reached[L - 1] += attempt && e.success;
     ls.has_goal = false;
   }
 }

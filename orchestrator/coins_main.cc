@@ -14,6 +14,7 @@
 
 #include "actors/envs/env_cli.h"
 #include "learner/detect/detect_cli.h"
+#include "learner/eval_cli.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
@@ -64,6 +65,7 @@ int main(int argc, char** argv) {
   coins::envs::AddEnvCommands(app);
   coins::detector::AddDetectCommand(app);
   coins::AddReplayCommands(app);
+  coins::AddEvalCommand(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

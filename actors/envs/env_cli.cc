@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "actors/envs/render.h"
+#include "actors/envs/rollout_format.h"
 #include "actors/envs/rng.h"
 
 namespace coins::envs {
@@ -18,31 +19,6 @@ namespace {
 constexpr uint64_t kPolicySalt = 0x70a11c1e5eedull;  // keeps the policy's stream apart from the env's
 
 using FilePtr = std::unique_ptr<FILE, int (*)(FILE*)>;
-
-void AppendFloat(std::string& out, float v) { fmt::format_to(std::back_inserter(out), "{}", v); }
-
-// {"Factor": [f...], "Class": [[f...], ...], ...}
-void AppendState(std::string& out, const EnvSpec& spec, const float* s) {
-  out += '{';
-  for (size_t i = 0; i < spec.factors.size(); ++i) {
-    const FactorSpec& f = spec.factors[i];
-    if (i) out += ',';
-    fmt::format_to(std::back_inserter(out), "\"{}\":", f.name);
-    const bool multi = f.multi_instance || f.instances > 1;
-    if (multi) out += '[';
-    for (int k = 0; k < f.instances; ++k) {
-      if (k) out += ',';
-      out += '[';
-      for (int j = 0; j < f.features; ++j) {
-        if (j) out += ',';
-        AppendFloat(out, *s++);
-      }
-      out += ']';
-    }
-    if (multi) out += ']';
-  }
-  out += '}';
-}
 
 std::string Trim(std::string_view s) {
   const auto b = s.find_first_not_of(" \t\r");
@@ -185,31 +161,7 @@ Status RunRollout(const RolloutOptions& o) {
     if (!st.ok()) return st.WithContext(fmt::format("step {}", t));
     // one JSON object per transition
     line.clear();
-    fmt::format_to(std::back_inserter(line), "{{\"t\":{},\"episode\":{},\"state\":", t, episode);
-    AppendState(line, spec, state.data());
-    line += ",\"action\":";
-    if (spec.action.discrete) {
-      fmt::format_to(std::back_inserter(line), "{}", static_cast<int>(action[0]));
-    } else {
-      line += '[';
-      for (size_t i = 0; i < action.size(); ++i) {
-        if (i) line += ',';
-        AppendFloat(line, action[i]);
-      }
-      line += ']';
-    }
-    line += ",\"next_state\":";
-    AppendState(line, spec, next.data());
-    line += ",\"reward\":";
-    AppendFloat(line, r.reward);
-    fmt::format_to(std::back_inserter(line), ",\"done\":{},\"truncated\":{},\"interactions\":[", r.done, r.truncated);
-    bool first = true;
-    for (size_t i = 0; i < spec.interactions.size(); ++i) {
-      if (!(r.interactions >> i & 1u)) continue;
-      fmt::format_to(std::back_inserter(line), "{}\"{}\"", first ? "" : ",", spec.interactions[i].label());
-      first = false;
-    }
-    line += "]}\n";
+    AppendRolloutLine(spec, t, episode, state, action, next, r, &line);
     if (std::fwrite(line.data(), 1, line.size(), out.get()) != line.size())
       return Errorf("--out {}: write failed", o.out);
     // next episode after done or truncated

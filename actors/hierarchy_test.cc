@@ -1,0 +1,172 @@
+// The hierarchy runner on Breakout with untrained levels (random actions): the rows it writes
+// and the goals it counts follow the rules of actors/hierarchy.h.
+#include "actors/hierarchy.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "actors/actor.h"
+#include "actors/envs/env.h"
+#include "idl/transition.h"
+
+namespace coins {
+namespace {
+
+struct RecordedRow {
+  int stream;
+  std::vector<float> state, action, goal;
+  float reward;
+  uint16_t flags;
+  uint8_t skill;
+};
+
+class Recorder final : public RowSink {
+ public:
+  void Row(int stream, std::span<const float> state, std::span<const float> action, std::span<const float> goal,
+           float reward, uint16_t flags, uint8_t skill, uint32_t) override {
+    rows.push_back({stream, {state.begin(), state.end()}, {action.begin(), action.end()}, {goal.begin(), goal.end()},
+                    reward, flags, skill});
+  }
+  std::vector<RecordedRow> rows;
+};
+
+policy::LevelSpec Paddle(const envs::EnvSpec& env) {
+  policy::LevelSpec s;
+  s.name = "skill/Paddle";
+  s.level = 1;
+  s.source = "Action";
+  s.goal = *policy::MakeGoalSpace(env, "Paddle", {0, 1, 0, 0, 0});
+  s.goal.kind = policy::GoalKind::kContinuous;
+  s.goal.low = {7.5f};
+  s.goal.high = {75.5f};
+  s.goal.epsilon = 1.0f;
+  const int p = env.factor_offset(env.factor_index("Paddle"));
+  for (int i = 0; i < 5; ++i) s.obs_index.push_back(p + i), s.obs_low.push_back(-100), s.obs_high.push_back(100);
+  s.num_actions = 4;
+  s.timeout = 30;
+  s.hidden = {8};
+  return s;
+}
+
+policy::LevelSpec Ball(const envs::EnvSpec& env) {
+  policy::LevelSpec s = Paddle(env);
+  s.name = "skill/Ball";
+  s.level = 2;
+  s.source = "Paddle";
+  s.goal = *policy::MakeGoalSpace(env, "Ball", {0, 0, 1, 1, 0});
+  s.goal.kind = policy::GoalKind::kDiscrete;
+  s.goal.goals = {{-1, -1}, {-2, -1}, {-2, 1}, {-1, 1}};
+  s.goal.epsilon = 0.01f;
+  s.action_kind = policy::ActionKind::kChildOffsets;
+  s.child_offsets = {-1, 0, 1};
+  s.num_actions = 3;
+  s.timeout = 300;
+  s.decision_period = 3;
+  return s;
+}
+
+HierarchyModels Models(const std::vector<policy::LevelSpec>& specs) {
+  HierarchyModels m;
+  for (const auto& s : specs) {
+    auto lm = std::make_unique<LevelModel>();
+    lm->net = *policy::PolicyNet::Create(s);
+    m.levels.push_back(std::move(lm));
+  }
+  return m;
+}
+
+// runs `steps` env steps of the hierarchy; returns the recorder
+Recorder RunSteps(envs::Env& env, HierarchyRunner& runner, int steps) {
+  Recorder rec;
+  std::vector<float> state(size_t(env.spec().state_dim())), next(state.size()), action(1);
+  env.Reset(7, state);
+  runner.StartEpisode(state, &rec);
+  for (int t = 0; t < steps; ++t) {
+    runner.Decide(state, action);
+    envs::StepResult r;
+    EXPECT_TRUE(env.Step(action, next, &r).ok());
+    runner.Observe(state, action, next, r.reward, r.done || r.truncated, r.truncated, r.interactions, &rec);
+    std::swap(state, next);
+    if (r.done || r.truncated) {
+      env.ResetNext(state);
+      runner.StartEpisode(state, &rec);
+    }
+  }
+  return rec;
+}
+
+TEST(Hierarchy, FirstSkillRowsMarkReachedAndTimedOutGoals) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  const HierarchyModels models = Models({Paddle(spec)});
+  int action_dim, goal_dim;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  HierarchyRunner runner(spec, action_dim, goal_dim, 5);
+  runner.Configure(&models, 1, true);
+  const Recorder rec = RunSteps(**env, runner, 5000);
+  const int px = spec.factor_offset(spec.factor_index("Paddle")) + 1;
+  uint64_t reached = 0, timed_out = 0;
+  int since_goal = 0;
+  for (const auto& row : rec.rows) {
+    ASSERT_EQ(row.stream, 0);
+    if (row.flags & msg::ROW_SEGMENT_START) {
+      since_goal = 0;
+      continue;
+    }
+    EXPECT_EQ(row.skill, 1);
+    ++since_goal;
+    const bool at_goal = std::abs(row.state[size_t(px)] - row.goal[1]) <= 1.0f;
+    // a step that reaches its goal terminates it, and only such a step
+    EXPECT_EQ((row.flags & msg::ROW_SKILL_TERMINATED) != 0, at_goal);
+    if (row.flags & msg::ROW_SKILL_TERMINATED) ++reached;
+    if (row.flags & msg::ROW_GOAL_END) {
+      // the timeout, or the episode's end cut the goal short (not counted as an attempt)
+      EXPECT_TRUE(since_goal == 30 || (row.flags & msg::ROW_DONE)) << since_goal;
+      timed_out += since_goal == 30;
+    }
+    if (row.flags & (msg::ROW_SKILL_TERMINATED | msg::ROW_GOAL_END)) since_goal = 0;
+  }
+  EXPECT_GT(reached, 20u);
+  EXPECT_GT(timed_out, 20u);
+  EXPECT_EQ(runner.counters().goals_reached[0], reached);
+  EXPECT_EQ(runner.counters().goals_ended[0], reached + timed_out);
+}
+
+TEST(Hierarchy, SecondLevelDecidesEveryThreeStepsAndWritesItsOwnStream) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  const HierarchyModels models = Models({Paddle(spec), Ball(spec)});
+  int action_dim, goal_dim;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  HierarchyRunner runner(spec, action_dim, goal_dim, 9);
+  runner.Configure(&models, 2, true);
+  const Recorder rec = RunSteps(**env, runner, 3000);
+  int steps_since_decision = 0, decisions = 0;
+  for (const auto& row : rec.rows) {
+    if (row.flags & msg::ROW_SEGMENT_START) {
+      steps_since_decision = 0;
+      continue;
+    }
+    if (row.stream == 0) {
+      ++steps_since_decision;
+      // the paddle's goal never outlives the ball skill's decision
+      EXPECT_LE(steps_since_decision, 3);
+      continue;
+    }
+    ASSERT_EQ(row.stream, 2);
+    EXPECT_EQ(row.skill, 2);
+    ++decisions;
+    EXPECT_GE(steps_since_decision, 1);
+    steps_since_decision = 0;
+    // the action is an offset index, the goal one of the four ball velocities
+    EXPECT_GE(row.action[0], 0.0f);
+    EXPECT_LE(row.action[0], 2.0f);
+    EXPECT_EQ(std::abs(row.goal[3]), 1.0f);
+    EXPECT_TRUE(std::abs(row.goal[2]) == 1.0f || std::abs(row.goal[2]) == 2.0f);
+  }
+  EXPECT_GT(decisions, 900);
+}
+
+}  // namespace
+}  // namespace coins

@@ -1,0 +1,187 @@
+#include "learner/eval_cli.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "actors/envs/env.h"
+#include "actors/envs/render.h"
+#include "actors/envs/rollout_format.h"
+#include "actors/evaluate.h"
+#include "common/config/config.h"
+#include "common/run_options.h"
+#include "learner/learner_core.h"
+
+namespace coins {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// the newest learner checkpoint of a run directory, or the asked epoch
+Result<std::string> FindCheckpoint(const std::string& run_dir, int64_t epoch) {
+  const fs::path dir = fs::path(run_dir) / "checkpoints";
+  if (epoch >= 0) {
+    const fs::path p = dir / fmt::format("learner-epoch-{}", epoch);
+    if (!fs::exists(p / "state.json")) return Errorf("{}: no learner checkpoint of epoch {}", run_dir, epoch);
+    return p.string();
+  }
+  int64_t best = -1;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("learner-epoch-", 0) != 0 || !fs::exists(e.path() / "state.json")) continue;
+    const std::string d = n.substr(14);
+    if (d.empty() || d.size() > 15 || d.find_first_not_of("0123456789") != std::string::npos) continue;
+    best = std::max<int64_t>(best, std::stoll(d));
+  }
+  if (best < 0) return Errorf("{}: no learner checkpoint (checkpoints/learner-epoch-N/state.json)", run_dir);
+  return (dir / fmt::format("learner-epoch-{}", best)).string();
+}
+
+// the run's env from RUN_DIR/config.yaml
+Result<std::string> RunEnv(const std::string& run_dir) {
+  RunOptions run;
+  ConfigLoader loader({ConfigSection::Of("run", run)});
+  if (Status s = loader.LoadFile((fs::path(run_dir) / "config.yaml").string()); !s.ok()) return s;
+  return run.env;
+}
+
+// every observed feature and goal of a level means the same in both envs
+Status CheckFits(const policy::LevelSpec& s, const envs::EnvSpec& trained, const envs::EnvSpec& target) {
+  auto where = [](const envs::EnvSpec& e, int index) -> std::string {
+    int off = 0;
+    for (const auto& f : e.factors) {
+      if (index < off + f.size()) return fmt::format("{}.{}", f.name, f.feature_names[size_t((index - off) % f.features)]);
+      off += f.size();
+    }
+    return "outside the state";
+  };
+  for (int i : s.obs_index)
+    if (where(trained, i) != where(target, i))
+      return Errorf("{} observes {} in {}, but that is {} in {}", s.name, where(trained, i), trained.name,
+                    where(target, i), target.name);
+  return Status::Ok();
+}
+
+int FindLevel(const LearnerCore& core, const std::string& skill, std::string* names) {
+  for (int L = 1; L <= 8; ++L) {
+    PolicyTrainer* t = core.trainer(L);
+    if (!t) break;
+    *names += (names->empty() ? "" : ", ") + t->spec().name;
+    if (skill.empty() ? t->spec().is_task() : (t->spec().name == skill || t->spec().name == "skill/" + skill)) return L;
+  }
+  return -1;
+}
+
+}  // namespace
+
+Status RunEval(const EvalFlags& f) {
+  auto ckpt = FindCheckpoint(f.run_dir, f.epoch);
+  if (!ckpt.ok()) return ckpt.status();
+  auto trained_env = RunEnv(f.run_dir);
+  if (!trained_env.ok()) return trained_env.status();
+  auto trained = envs::MakeEnv(*trained_env);
+  if (!trained.ok()) return trained.status().WithContext(f.run_dir);
+  auto env = envs::MakeEnv(f.env.empty() ? *trained_env : f.env);
+  if (!env.ok()) return env.status().WithContext("--env");
+  LearnerCore core((*trained)->spec(), LearnerOptions{}, f.seed);
+  COINS_RETURN_IF_ERROR(core.LoadCheckpoint(*ckpt));
+  std::string names;
+  const int level = FindLevel(core, f.skill, &names);
+  if (level < 0)
+    return f.skill.empty() ? Errorf("{}: no task policy in {} (levels: {}); give --skill NAME", f.run_dir, *ckpt,
+                                    names.empty() ? "none" : names)
+                           : Errorf("--skill {}: not in {} (levels: {})", f.skill, *ckpt, names.empty() ? "none" : names);
+  for (int L = 1; L <= level; ++L)
+    COINS_RETURN_IF_ERROR(CheckFits(core.trainer(L)->spec(), (*trained)->spec(), (*env)->spec()));
+  auto models = core.Models(level);
+  if (!models.ok()) return models.status();
+
+  // recorders: rollout lines and GIF frames
+  std::unique_ptr<FILE, int (*)(FILE*)> out(nullptr, &std::fclose);
+  if (!f.out.empty()) {
+    out.reset(std::fopen((f.out + ".tmp").c_str(), "w"));
+    if (!out) return Errorf("--out {}: cannot open for writing", f.out);
+  }
+  std::unique_ptr<envs::FrameRenderer> renderer;
+  std::vector<envs::Image> frames;
+  if (!f.gif.empty()) {
+    auto r = envs::MakeRenderer(**env, 4, 320, 240);
+    if (!r.ok()) return r.status().WithContext("--gif");
+    renderer = std::move(*r);
+  }
+  int64_t t = 0;
+  std::string line;
+  Status step_error;
+  auto on_step = [&](const EvalStep& s) {
+    if (out) {
+      line.clear();
+      envs::AppendRolloutLine((*env)->spec(), t, s.episode, s.state, s.action, s.next, *s.result, &line);
+      if (std::fwrite(line.data(), 1, line.size(), out.get()) != line.size()) step_error = Errorf("--out {}: write failed", f.out);
+    }
+    if (renderer && t < f.gif_steps) {
+      auto img = renderer->Render(**env);
+      if (img.ok()) frames.push_back(std::move(*img));
+    }
+    ++t;
+  };
+  EvalOptions eo{f.episodes, f.max_steps, f.seed};
+  auto r = Evaluate(**env, **models, level, eo, on_step);
+  if (!r.ok()) return r.status();
+  COINS_RETURN_IF_ERROR(step_error);
+  if (out) {
+    if (std::fflush(out.get()) != 0) return Errorf("--out {}: write failed", f.out);
+    out.reset();
+    std::rename((f.out + ".tmp").c_str(), f.out.c_str());
+  }
+  if (renderer) COINS_RETURN_IF_ERROR(envs::WriteGif(f.gif, frames, 3));
+
+  const policy::LevelSpec& spec = core.trainer(level)->spec();
+  const policy::LevelSpec& skill = spec.is_task() ? core.trainer(level - 1)->spec() : spec;
+  nlohmann::json j = {{"run_dir", f.run_dir}, {"checkpoint", *ckpt},     {"env", (*env)->spec().name},
+                      {"level", level},       {"policy", spec.name},      {"episodes", r->returns.size()},
+                      {"return_mean", r->return_mean}, {"return_sd", r->return_sd}, {"returns", r->returns},
+                      {"goals", r->goals_ended}, {"success", r->success}, {"steps", r->steps}};
+  j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r->success) : nlohmann::json(nullptr);
+  if (f.json) {
+    std::cout << j.dump() << "\n";
+  } else {
+    std::cout << fmt::format("{} on {} ({}):", spec.name, (*env)->spec().name, *ckpt) << "\n";
+    if (spec.is_task())
+      std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes", r->return_mean, r->return_sd,
+                               r->returns.size())
+                << "\n";
+    std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r->success,
+                             r->goals_reached, r->goals_ended, r->steps)
+              << "\n";
+  }
+  return Status::Ok();
+}
+
+void AddEvalCommand(CLI::App& app, int* exit_code) {
+  auto f = std::make_shared<EvalFlags>();
+  CLI::App* cmd = app.add_subcommand("eval", "Run a run's greedy task policy (or a skill) and report its return.");
+  cmd->add_option("run_dir", f->run_dir, "run directory (with checkpoints/)")->required();
+  cmd->add_option("--env", f->env, "environment to evaluate in (default: the run's)");
+  cmd->add_option("--skill", f->skill, "evaluate this skill (e.g. Ball) with random goals instead of the task");
+  cmd->add_option("--episodes", f->episodes, "episodes (task) or goals (skill)")->check(CLI::Range(1, 100000));
+  cmd->add_option("--seed", f->seed, "first episode's seed");
+  cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")->check(CLI::Range(int64_t(1), int64_t(1) << 30));
+  cmd->add_option("--epoch", f->epoch, "checkpoint epoch (default: the newest)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--out", f->out, "write the rollout as JSON lines (the `coins env rollout` format)");
+  cmd->add_option("--gif", f->gif, "write the first --gif-steps steps as a GIF");
+  cmd->add_option("--gif-steps", f->gif_steps, "frames in the GIF")->check(CLI::Range(1, 3000));
+  cmd->add_flag("--json", f->json, "print one JSON object");
+  cmd->callback([f, exit_code] {
+    if (Status s = RunEval(*f); !s.ok()) {
+      std::cerr << "coins eval: " << s.message() << "\n";
+      *exit_code = 2;
+    }
+  });
+}
+
+}  // namespace coins

@@ -1,0 +1,35 @@
+// `coins eval RUN_DIR`: runs the greedy task policy of a run (or one of its skills with random
+// goals) from its newest learner checkpoint and reports the return's mean and standard
+// deviation, the top skill's success (ball-angle accuracy in Breakout), optionally the rollout
+// in the `coins env rollout` format and a GIF.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "common/status.h"
+
+namespace coins {
+
+struct EvalFlags {
+  std::string run_dir;
+  std::string env;           // empty: the run's env
+  std::string skill;         // empty: the task
+  int episodes = 20;
+  uint64_t seed = 1;
+  int64_t max_steps = 20000;
+  int64_t epoch = -1;        // -1: the newest checkpoint
+  std::string out;           // rollout JSON lines
+  std::string gif;
+  int gif_steps = 1500;      // frames (env steps) in the GIF
+  bool json = false;
+};
+
+// adds `eval`; its exit code goes to *exit_code
+void AddEvalCommand(CLI::App& app, int* exit_code);
+// runs; prints the report (text or JSON) on stdout
+Status RunEval(const EvalFlags& flags);
+
+}  // namespace coins

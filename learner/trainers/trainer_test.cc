@@ -1,0 +1,99 @@
+// Level specs built from links, and trainers whose acting weights actors can load.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "actors/envs/env.h"
+#include "common/policy/policy_net.h"
+#include "common/nn/serialize.h"
+#include "learner/trainers/level_builder.h"
+#include "learner/trainers/policy_trainer.h"
+
+namespace coins {
+namespace {
+
+msg::LinkSpec Link(const std::string& source, const std::string& target, std::vector<float> mask,
+                   const std::string& kind, std::vector<float> goals, double rate) {
+  msg::LinkSpec l;
+  l.source(source);
+  l.target(target);
+  l.mask(mask);
+  l.goal_kind(kind);
+  l.goal_set(goals);
+  l.interaction_rate(rate);
+  return l;
+}
+
+struct Breakout {
+  std::unique_ptr<envs::Env> env = std::move(*envs::MakeEnv("breakout"));
+  const envs::EnvSpec& spec = env->spec();
+  msg::LinkSpec paddle = Link("Action", "Paddle", {0, 1, 0, 0, 0}, "continuous", {7.5f, 75.5f}, 0.46);
+  msg::LinkSpec ball = Link("Paddle", "Ball", {0, 0, 1, 1, 0}, "discrete", {-1, -1, -2, -1, -2, 1, -1, 1}, 0.004);
+};
+
+TEST(LevelBuilder, BreakoutChainLevels) {
+  Breakout b;
+  LearnerOptions o;
+  auto paddle = BuildSkillSpec(b.spec, b.paddle, 1, nullptr, o.primitive);
+  ASSERT_TRUE(paddle.ok()) << paddle.status().message();
+  EXPECT_EQ(paddle->obs_dim(), 5 + 1);  // the paddle and its goal x
+  EXPECT_EQ(paddle->action_kind, policy::ActionKind::kPrimitiveDiscrete);
+  EXPECT_EQ(paddle->num_actions, 4);
+  EXPECT_FALSE(paddle->terminate_on_interaction);  // the action moves the paddle one step in two
+  EXPECT_NEAR(paddle->goal.epsilon, 1.0f, 0.02f);  // 1 px
+
+  auto ball = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, o.skill);
+  ASSERT_TRUE(ball.ok()) << ball.status().message();
+  EXPECT_EQ(ball->obs_dim(), 5 + 5 + 2 + 2);  // paddle, ball, relative y and x, goal vy and vx
+  EXPECT_EQ(ball->action_kind, policy::ActionKind::kChildOffsets);
+  EXPECT_EQ(ball->goal.goals.size(), 4u);
+  EXPECT_TRUE(ball->terminate_on_interaction && ball->require_interaction);  // a bounce is rare
+  EXPECT_EQ(ball->detector, "detector/Paddle->Ball");
+
+  auto task = BuildTaskSpec(b.spec, *ball, o.task);
+  ASSERT_TRUE(task.ok()) << task.status().message();
+  EXPECT_TRUE(task->is_task());
+  EXPECT_EQ(task->level, 3);
+  EXPECT_EQ(task->action_kind, policy::ActionKind::kChildDiscrete);
+  EXPECT_EQ(task->num_actions, 4);
+  EXPECT_EQ(task->obs_dim(), 5 + 5 + 100 * 5 + 2);  // paddle, ball, blocks, relative
+
+  // a discrete goal set whose size does not fit the mask is refused, naming the link
+  msg::LinkSpec bad = b.ball;
+  bad.goal_set({1, 2, 3});
+  auto refused = BuildSkillSpec(b.spec, bad, 2, &*paddle, o.skill);
+  EXPECT_NE(refused.status().message().find("Paddle->Ball"), std::string::npos) << refused.status().message();
+}
+
+TEST(PolicyTrainer, ActingWeightsLoadIntoTheActorsNetwork) {
+  Breakout b;
+  LearnerOptions o;
+  for (const bool ddpg : {false, true}) {
+    LevelTrainOptions g = o.skill;
+    if (ddpg) g.child_offsets.clear();  // continuous child goals: ddpg
+    auto paddle = BuildSkillSpec(b.spec, b.paddle, 1, nullptr, o.primitive);
+    auto spec = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, g);
+    ASSERT_TRUE(spec.ok()) << spec.status().message();
+    EXPECT_EQ(spec->algorithm, ddpg ? "ddpg" : "dqn");
+    auto trainer = PolicyTrainer::Create(*spec, g, 3);
+    ASSERT_TRUE(trainer.ok()) << trainer.status().message();
+    auto net = policy::PolicyNet::Create(*spec);
+    ASSERT_TRUE(net->Load((*trainer)->ActingBlob(), "acting").ok());
+    EXPECT_EQ(nn::ToBlob(net->params()), (*trainer)->ActingBlob());
+    // its state exports and imports whole
+    rl::AlgorithmState st = (*trainer)->ExportState();
+    auto other = PolicyTrainer::Create(*spec, g, 4);
+    ASSERT_TRUE((*other)->ImportState(st).ok());
+    EXPECT_EQ((*other)->ActingBlob(), (*trainer)->ActingBlob());
+    EXPECT_EQ((*other)->updates(), (*trainer)->updates());
+    // the sample spec reads the level's stream and features, with its rewards
+    const SampleSpec& q = (*trainer)->sample_spec();
+    EXPECT_EQ(q.level_mask, 1u << 2);
+    EXPECT_EQ(q.features.size(), 10u);
+    EXPECT_TRUE(q.require_interaction && q.terminate_on_interaction);
+    EXPECT_EQ(q.goal_mask, (std::vector<float>{0, 0, 1, 1, 0}));
+  }
+}
+
+}  // namespace
+}  // namespace coins

@@ -143,6 +143,17 @@ RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemCon
   return out;
 }
 
+// the chain is done: its phase change cuts an epoch, in which the learner checkpoints the final
+// policy (what `coins eval` loads); waits for it, at most the checkpoint timeout
+void WaitForFinalEpoch(const SystemConfig& c) {
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration<double>(c.orchestrator.checkpoint_timeout_s + 2.0);
+  while (!FinalEpoch(c.run.dir) && std::chrono::steady_clock::now() < end && !StopRequested())
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  if (auto e = FinalEpoch(c.run.dir)) std::cout << "coins run: final checkpoint epoch " << *e << " complete\n";
+  else std::cout << "coins run: no checkpoint epoch of the finished chain completed; the newest checkpoint is used\n";
+}
+
 // the summary (printed and summary.json), learning curves, and the final GIF of a finished chain
 void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup, const SystemConfig& c,
                bool chain_done) {
@@ -218,6 +229,7 @@ int RunLocal(const RunFlags& flags) {
   if (!metrics.ok()) std::cerr << "coins run: " << metrics.status().message() << "\n";
   Progress progress(c, flags.quiet, metrics.ok() ? std::optional<RunMetrics>(std::move(*metrics)) : std::nullopt);
   RunOutcome outcome = WatchRun(sup, **collector, c, progress);
+  if (outcome.chain_done) WaitForFinalEpoch(c);
   const std::string& failure = outcome.failure;
 
   if (!failure.empty()) std::cerr << "coins run: " << failure << "; stopping the other processes\n";

@@ -234,13 +234,29 @@ std::string FormatSummary(const json& s) {
   return out;
 }
 
+std::optional<uint64_t> FinalEpoch(const std::string& run_dir) {
+  std::error_code ec;
+  std::optional<uint64_t> newest;
+  for (const auto& e : fs::directory_iterator(fs::path(run_dir) / "chain", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("chain-epoch-", 0) != 0) continue;
+    std::ifstream in(e.path());
+    json j = json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.contains("state") || !j["state"].is_object()) continue;
+    const json& s = j["state"];
+    if (s.value("phase", "") != "done" || !s.contains("epoch") || !s["epoch"].is_number_unsigned()) continue;
+    newest = std::max(newest.value_or(0), s["epoch"].get<uint64_t>());
+  }
+  return newest;
+}
+
 std::string WriteFinalGif(const std::string& coins_path, const std::string& run_dir) {
   const std::string log = (fs::path(run_dir) / "logs" / "eval.log").string();
   auto probe = RunBounded({coins_path, "eval", "--help"}, log, std::chrono::seconds(10));
   if (!Succeeded(probe))
     return "final GIF skipped: this coins has no `eval` subcommand yet (hook: WriteFinalGif in orchestrator/run_report.cc)";
   const std::string gif = (fs::path(run_dir) / "final.gif").string();
-  auto r = RunBounded({coins_path, "eval", run_dir, "--gif", gif}, log, std::chrono::seconds(600));
+  auto r = RunBounded({coins_path, "eval", run_dir, "--episodes", "1", "--gif", gif}, log, std::chrono::seconds(600));
   if (!Succeeded(r)) return fmt::format("final GIF not written: coins eval failed; see {}", log);
   return "final policy GIF: " + gif;
 }

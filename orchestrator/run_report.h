@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,9 +61,14 @@ class RunMetrics {
 nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
 std::string FormatSummary(const nlohmann::json& summary);
 
+// the newest complete epoch cut after the chain was done (its chain-epoch-N.json holds phase
+// done): the learner's checkpoint of that epoch holds the final policy; nullopt when none yet
+std::optional<uint64_t> FinalEpoch(const std::string& run_dir);
+
 // HOOK (final GIF): when `coins eval` exists (the `eval` subcommand of the coins binary at
 // coins_path), runs `coins eval RUN_DIR --gif RUN_DIR/final.gif` (bounded: 10 min) and returns
-// the line to print; otherwise says that the GIF is skipped
+// the line to print; otherwise says that the GIF is skipped. One episode (--episodes 1): the
+// final eval return is the learner's, from the run
 std::string WriteFinalGif(const std::string& coins_path, const std::string& run_dir);
 
 }  // namespace coins

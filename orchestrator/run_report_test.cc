@@ -116,5 +116,21 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
   EXPECT_NE(text.find("final eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
 }
 
+TEST(RunReport, TheFinalEpochIsTheOneCutAfterTheChainWasDone) {
+  fs::path dir = Dir("final-epoch");
+  EXPECT_FALSE(FinalEpoch(dir.string()).has_value());
+  fs::create_directories(dir / "chain");
+  auto write = [&](uint64_t epoch, const std::string& phase) {
+    nlohmann::json j = {{"format", "coins-chain"}, {"state", {{"phase", phase}, {"epoch", epoch}}}};
+    std::ofstream(dir / "chain" / ("chain-epoch-" + std::to_string(epoch) + ".json")) << j.dump();
+  };
+  write(3, "task");
+  EXPECT_FALSE(FinalEpoch(dir.string()).has_value());
+  write(5, "done");
+  write(4, "done");
+  std::ofstream(dir / "chain" / "chain-epoch-9.json") << "{";  // corrupt: ignored
+  EXPECT_EQ(FinalEpoch(dir.string()).value_or(0), 5u);
+}
+
 }  // namespace
 }  // namespace coins

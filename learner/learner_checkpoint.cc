@@ -8,6 +8,7 @@
 
 #include "common/files.h"
 #include "common/nn/serialize.h"
+#include "common/policy/weights_msg.h"
 #include "learner/learner_core.h"
 
 namespace coins {
@@ -54,7 +55,14 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
     const rl::AlgorithmState st = t->ExportState();
     const std::string file = "trainer-" + std::to_string(level) + ".bin";
     COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/" + file, StateBlob(st)));
-    j["trainers"].push_back({{"level", level}, {"spec", ToJson(t->spec())}, {"counters", st.counters}, {"file", file}});
+    // what the first weights published after a resume from this checkpoint carry
+    const uint32_t acting = policy::WeightsChecksum(ToJson(t->spec()).dump(), t->ActingBlob());
+    j["trainers"].push_back({{"level", level},
+                             {"name", t->spec().name},
+                             {"spec", ToJson(t->spec())},
+                             {"counters", st.counters},
+                             {"file", file},
+                             {"acting_checksum", acting}});
   }
   for (const auto& [target, d] : detectors_) {
     if (!d.det) continue;

@@ -72,6 +72,9 @@ class ChunkStore {
   void DropLast();
 
   int64_t capacity() const { return capacity_transitions_; }
+  // chunk descriptors the ring can hold (0 before Configure); chunk ids held are contiguous and
+  // fewer than this, so id mod chunk_slots() names a chunk uniquely
+  size_t chunk_slots() const { return ring_.size(); }
   int64_t capacity_bytes() const { return arena_bytes_; }
   int64_t row_capacity() const { return row_capacity_; }
   uint32_t state_dim() const { return state_dim_; }

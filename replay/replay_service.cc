@@ -107,7 +107,7 @@ void ReplayService::Sample(const msg::SampleRequest& req, msg::SampleReply* repl
   std::lock_guard lock(mu_);
   reply->shard_size(uint64_t(shard_.store().transitions()));
   Status s = ValidateSampleRequest(req, shard_.store().state_dim());
-  if (s.ok()) s = sampler_.Sample(shard_.store(), shard_.priorities(), req, reply, &rng_);
+  if (s.ok()) s = sampler_.Sample(shard_.store(), shard_.priorities(), req, reply, &rng_, &shard_.levels());
   if (!s.ok()) {
     counters_.bad_requests++;
     return fail(msg::SAMPLE_BAD_REQUEST, s.message());

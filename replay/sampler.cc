@@ -309,11 +309,20 @@ void Sampler::ImportanceWeights(const ChunkStore& store, const msg::SampleReques
 }
 
 Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
-                       msg::SampleReply* out, std::mt19937_64* rng) {
+                       msg::SampleReply* out, std::mt19937_64* rng, const LevelIndex* levels) {
   COINS_RETURN_IF_ERROR(Prepare(store, req, out));
+  const bool indexed = levels && req.level_mask() != 0 && req.strategy() == msg::SAMPLE_UNIFORM;
   for (uint32_t i = 0; i < plan_.batch; ++i) {
     Pos p;
-    if (!Draw(store, prio, req, rng, &p, &probs_[i])) {
+    size_t chunk = 0;
+    uint32_t row = 0;
+    const bool drawn = indexed ? levels->Draw(store, req.level_mask(), rng, &chunk, &row)
+                               : Draw(store, prio, req, rng, &p, &probs_[i]);
+    if (indexed) {
+      p = {uint32_t(chunk), row};
+      probs_[i] = 1.0;
+    }
+    if (!drawn) {
       if (req.level_mask() != 0) return Errorf("no transitions of level_mask {:#x} found", req.level_mask());
       if (req.skill_level() >= 0) return Errorf("no transitions of skill level {} found", req.skill_level());
       return Errorf("no transitions found");

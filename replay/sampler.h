@@ -48,6 +48,7 @@
 #include "common/status.h"
 #include "idl/sampling.h"
 #include "replay/chunk_store.h"
+#include "replay/level_index.h"
 #include "replay/priorities.h"
 
 namespace coins {
@@ -73,8 +74,11 @@ class Sampler {
   // samples; the request must have passed ValidateSampleRequest. Errors name the field that
   // does not fit the store (goal_mask longer than the stored goals, ...) or the selection that
   // found no rows.
+  // levels (optional): the shard's level index; uniform requests with a level_mask then draw
+  // exactly among the rows of those levels (without it, or for prioritised and weighted
+  // requests, rows of other levels are redrawn, at most SamplerOptions::redraws times)
   Status Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
-                msg::SampleReply* reply, std::mt19937_64* rng);
+                msg::SampleReply* reply, std::mt19937_64* rng, const LevelIndex* levels = nullptr);
 
  private:
   struct Pos {

@@ -7,7 +7,11 @@ Shard::Shard(uint32_t shard_id, const ReplayOptions& options)
       store_(options.capacity, options.capacity_mb * 1024 * 1024),
       prio_(store_.row_capacity(), options.priority_exponent) {
   // evicted rows leave the priority index with their chunk
-  store_.SetEvictHook([this](const ChunkInfo& c) { prio_.OnEvict(c.row_base, c.n_rows); });
+  // (the chunk leaving is the oldest, index 0)
+  store_.SetEvictHook([this](const ChunkInfo& c) {
+    prio_.OnEvict(c.row_base, c.n_rows);
+    levels_.OnEvict(store_, 0);
+  });
 }
 
 Status Shard::Check(const TransitionBatch& batch) const {
@@ -37,6 +41,7 @@ Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why) {
   }
   const ChunkInfo& c = store_.chunk(store_.chunks() - 1);
   prio_.OnInsert(c.row_base, store_.flags(store_.chunks() - 1), c.n_rows);
+  levels_.OnInsert(store_, store_.chunks() - 1);
   uint32_t transitions = c.transitions;
   ledger_.Record(batch.actor_id(), transitions, stored_hash);
   c_.inserted_transitions += transitions;

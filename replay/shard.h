@@ -9,6 +9,7 @@
 
 #include "replay/chunk_store.h"
 #include "replay/ingest_ledger.h"
+#include "replay/level_index.h"
 #include "replay/priorities.h"
 #include "replay/replay_options.h"
 
@@ -37,6 +38,8 @@ class Shard {
   const IngestLedger& ledger() const { return ledger_; }
   const Priorities& priorities() const { return prio_; }
   Priorities& priorities() { return prio_; }
+  const LevelIndex& levels() const { return levels_; }
+  LevelIndex& levels() { return levels_; }
   uint64_t inserted_transitions() const { return c_.inserted_transitions; }
   uint64_t inserted_batches() const { return c_.inserted_batches; }
   uint64_t rejected() const { return c_.rejected; }
@@ -56,6 +59,7 @@ class Shard {
   ChunkStore store_;
   IngestLedger ledger_;
   Priorities prio_;
+  LevelIndex levels_;
   ShardCounters c_;
 };
 

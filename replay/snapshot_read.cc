@@ -131,6 +131,7 @@ Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter
     size_t last = store.chunks() - 1;
     const ChunkInfo& held = store.chunk(last);
     shard->priorities().OnInsert(held.row_base, store.flags(last), held.n_rows);
+    shard->levels().OnInsert(store, last);
     for (uint32_t r = 0; r < held.n_rows; ++r)
       shard->priorities().SetRaw(held.row_base + r, img.priorities[2 * (row + r)], img.priorities[2 * (row + r) + 1]);
     offset += c.bytes;

@@ -152,7 +152,11 @@ void ChainAdapter::CompleteEpoch() {
 }
 
 void ChainAdapter::PublishStatus() {
+  // what the chain does now, and its last transition with the reason (e.g. a skill learned by
+  // convergence or by its budget); done: the reason it ended
   std::string message = machine_.Describe();
+  const chain::ChainState& s = machine_.state();
+  if (s.phase != chain::Phase::kDone && !s.note.empty()) message += " (last: " + s.note + ")";
   if (!checkpoint_note_.empty()) message += "; " + checkpoint_note_;
   io_.status.Write(ToChainStatus(machine_, config_.run.dir, message));
 }

@@ -68,7 +68,10 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   if (skill_level >= 1) {
     r.goals_ended = runner.counters().goals_ended[skill_level - 1];
     r.goals_reached = runner.counters().goals_reached[skill_level - 1];
+    r.goals_interacted = runner.counters().goals_interacted[skill_level - 1];
     r.success = r.goals_ended ? double(r.goals_reached) / double(r.goals_ended) : 0.0;
+    r.hit_rate = r.goals_ended ? double(r.goals_interacted) / double(r.goals_ended) : 0.0;
+    r.accuracy = r.goals_interacted ? double(r.goals_reached) / double(r.goals_interacted) : 0.0;
   }
   Summarise(&r);
   return r;

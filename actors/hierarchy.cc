@@ -218,6 +218,7 @@ void HierarchyRunner::Observe(std::span<const float> state, std::span<const floa
     const bool attempt = e.natural || (done && models_->at(L)->spec().terminate_on_interaction);
     counters_.goals_ended[L - 1] += attempt;
     counters_.goals_reached[L - 1] += attempt && e.success;
+    counters_.goals_interacted[L - 1] += attempt && e.interaction;
     ls.has_goal = false;
   }
 }

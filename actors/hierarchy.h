@@ -62,6 +62,8 @@ struct HierarchyCounters {
   // per level (index level - 1): goals that ended as attempts (reached, an interaction, the
   // timeout, or an episode's end for a level whose goals are interactions), and of them reached
   uint64_t goals_ended[8] = {}, goals_reached[8] = {};
+  // of the attempts, those ended by a detected link interaction (a bounce, reached or not)
+  uint64_t goals_interacted[8] = {};
   // the top acting link's detector against the env's labels
   uint64_t detector_states = 0, detector_truth = 0, detector_fp = 0, detector_fn = 0;
 };

@@ -146,7 +146,8 @@ Status RunEval(const EvalFlags& f) {
                       {"level", level},       {"policy", spec.name},      {"episodes", r->returns.size()},
                       {"return_mean", r->return_mean}, {"return_sd", r->return_sd}, {"returns", r->returns},
                       {"goals", r->goals_ended}, {"success", r->success}, {"steps", r->steps}};
-  j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r->success) : nlohmann::json(nullptr);
+  j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r->accuracy) : nlohmann::json(nullptr);
+  j["hit_rate"] = skill.require_interaction ? nlohmann::json(r->hit_rate) : nlohmann::json(nullptr);
   if (f.json) {
     std::cout << j.dump() << "\n";
   } else {
@@ -158,6 +159,10 @@ Status RunEval(const EvalFlags& f) {
     std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r->success,
                              r->goals_reached, r->goals_ended, r->steps)
               << "\n";
+    if (skill.require_interaction)
+      std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
+                               100.0 * r->hit_rate, 100.0 * r->accuracy)
+                << "\n";
   }
   return Status::Ok();
 }

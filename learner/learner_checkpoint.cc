@@ -74,7 +74,8 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
     j["published"].push_back({{"name", name}, {"version", w.version()}, {"checksum", w.checksum()}});
   j["eval"] = {{"env_steps", status_.eval_env_steps()}, {"return_mean", status_.eval_return_mean()},
                {"return_sd", status_.eval_return_sd()}, {"episodes", status_.eval_episodes()},
-               {"success", status_.eval_success()}, {"angle_accuracy", status_.eval_angle_accuracy()}};
+               {"success", status_.eval_success()}, {"angle_accuracy", status_.eval_angle_accuracy()},
+               {"hit_rate", status_.eval_hit_rate()}};
   COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/state.json", j.dump(1)));
   COINS_RETURN_IF_ERROR(ReplaceDirectory(tmp, dir));
   status_.checkpoint_epoch(epoch);
@@ -133,6 +134,7 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
     status_.eval_episodes(e.at("episodes").get<uint32_t>());
     status_.eval_success(e.at("success").get<double>());
     status_.eval_angle_accuracy(e.at("angle_accuracy").get<double>());
+    status_.eval_hit_rate(e.value("hit_rate", 0.0));
   } catch (const json::exception& ex) {
     return Errorf("{}/state.json: {}", dir, ex.what());
   }

@@ -245,8 +245,9 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
   auto env = envs::MakeEnv(env_.name);
   if (!env.ok()) return env.status();
   EvalOptions o;
-  o.episodes = int(options_.eval_episodes);
-  o.max_steps = options_.eval_max_steps;
+  const bool task = specs_[size_t(train_level_) - 1].is_task();
+  o.episodes = int(task ? options_.eval_episodes : options_.eval_goals);
+  o.max_steps = task ? options_.eval_max_steps : options_.eval_max_steps * 10;
   o.seed = seed_ + 7919 + env_steps;
   auto r = coins::Evaluate(**env, **models, train_level_, o);
   if (!r.ok()) return r.status().WithContext("evaluation");
@@ -257,7 +258,8 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
   status_.eval_return_mean(r->return_mean);
   status_.eval_return_sd(r->return_sd);
   status_.eval_success(r->success);
-  status_.eval_angle_accuracy(skill.require_interaction ? r->success : 0.0);
+  status_.eval_angle_accuracy(skill.require_interaction ? r->accuracy : 0.0);
+  status_.eval_hit_rate(skill.require_interaction ? r->hit_rate : 0.0);
   return Status::Ok();
 }
 

@@ -97,7 +97,8 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
   v.Float("detect_eps_si", detect_eps_si, -1e6, 1e6, "Sc_I threshold reported as pass");
   v.Int("detector_retrain_steps", detector_retrain_steps, 0, int64_t(1) << 40, "env steps between detector retrains");
   v.Int("eval_every_steps", eval_every_steps, 1, int64_t(1) << 40, "env steps between evaluations");
-  v.Int("eval_episodes", eval_episodes, 1, 100000, "episodes (or goals) per evaluation");
+  v.Int("eval_episodes", eval_episodes, 1, 100000, "task episodes per evaluation");
+  v.Int("eval_goals", eval_goals, 1, 1000000, "skill goals per evaluation");
   v.Int("eval_max_steps", eval_max_steps, 1, int64_t(1) << 30, "env steps per evaluation episode at most");
   v.Int("checkpoint_keep", checkpoint_keep, 1, 1000, "learner checkpoints kept");
 }

@@ -62,9 +62,10 @@ struct LearnerOptions {
   // a skill trained on interactions retrains its link's detector from replay this often (env
   // steps; 0: never), as the reference retrained the paddle-ball model during ball training
   int64_t detector_retrain_steps = 50000;
-  // evaluation: greedy episodes (task) or goals (skills) every eval_every_steps env steps
+  // evaluation every eval_every_steps env steps: greedy task episodes, or greedy skill goals
   int64_t eval_every_steps = 20000;
   int64_t eval_episodes = 20;
+  int64_t eval_goals = 100;
   int64_t eval_max_steps = 20000;     // env steps at most per evaluation episode
   // checkpoints go to RUN_DIR/checkpoints
   int64_t checkpoint_keep = 3;

@@ -42,7 +42,7 @@ LocalRunOptions Options() {
   o.learner.detect_passive_steps = 1500;
   o.learner.detect_active_steps = 3000;
   o.learner.eval_every_steps = 4000;
-  o.learner.eval_episodes = 100;
+  o.learner.eval_goals = 100;
   if (getenv("EXPLORE")) o.learner.primitive.explore = atof(getenv("EXPLORE"));
   return o;
 }

@@ -31,12 +31,14 @@ int main() {
   o.replay.capacity = 1000000;
   o.replay.capacity_mb = 256;
   o.learner.eval_every_steps = int64_t(Env("EVAL", 20000));
-  o.learner.eval_episodes = 100;
+  o.learner.eval_goals = 100;
   o.learner.skill.explore = Env("SKILL_EXPLORE", o.learner.skill.explore);
   o.learner.skill.lr = Env("SKILL_LR", o.learner.skill.lr);
   o.learner.skill.n_step = int64_t(Env("SKILL_NSTEP", o.learner.skill.n_step));
   o.learner.skill.her_ratio = Env("SKILL_HER", o.learner.skill.her_ratio);
   o.learner.skill.decision_period = int64_t(Env("SKILL_PERIOD", o.learner.skill.decision_period));
+  o.learner.detector_retrain_steps = int64_t(Env("RETRAIN", o.learner.detector_retrain_steps));
+  o.learner.eval_episodes = int64_t(Env("EVAL_EPISODES", 10));
   auto made = LocalRun::Create(o);
   if (!made.ok()) { printf("%s\n", made.status().message().c_str()); return 1; }
   LocalRun& r = **made;
@@ -52,8 +54,8 @@ int main() {
       if (st.eval_env_steps() != last) {
         last = st.eval_env_steps();
         const auto& c = r.actor(0).counters().hierarchy;
-        printf("  [%lu] eval success %.3f return %.1f±%.1f | updates %lu loss %.3f | actor0 L%d ended %lu reached %lu | det fp %lu fn %lu truth %lu states %lu\n",
-               last, st.eval_success(), st.eval_return_mean(), st.eval_return_sd(), st.updates(), st.loss(), level,
+        printf("  [%lu] eval success %.3f hit %.3f acc %.3f return %.1f±%.1f | updates %lu loss %.3f | actor0 L%d ended %lu reached %lu | det fp %lu fn %lu truth %lu states %lu\n",
+               last, st.eval_success(), st.eval_hit_rate(), st.eval_angle_accuracy(), st.eval_return_mean(), st.eval_return_sd(), st.updates(), st.loss(), level,
                c.goals_ended[level - 1], c.goals_reached[level - 1], c.detector_fp, c.detector_fn, c.detector_truth,
                c.detector_states);
         fflush(stdout);
@@ -99,6 +101,11 @@ int main() {
   auto tb = Cmd(seq++, "train-skill", 2, r.env_steps() + uint64_t(Env("BALL_START", 5000)), Env("BALL_SPU", 2.0));
   tb.links(links);
   check(r.Command(tb));
-  work(r.env_steps() + uint64_t(Env("BALL_STEPS", 200000)), 2);
+  work(r.env_steps() + uint64_t(Env("BALL_STEPS", 150000)), 2);
+  // 5. the task over the ball skill
+  auto tt = Cmd(seq++, "train-task", 3, r.env_steps() + uint64_t(Env("TASK_START", 2000)), Env("TASK_SPU", 4.0));
+  tt.links(links);
+  check(r.Command(tt));
+  work(r.env_steps() + uint64_t(Env("TASK_STEPS", 150000)), 2);
   return 0;
 }

@@ -22,6 +22,8 @@ struct RunOptions {
   int64_t seed = 1;
   // directory for the run's files (effective config, logs, snapshots, checkpoints)
   std::string dir = "runs/latest";
+  // times `coins run` restarts a crashed child (each child counted alone) before it stops the run
+  int64_t max_restarts = 3;
 
   void Visit(ConfigVisitor& v) {
     v.String("env", env, {}, "environment name");
@@ -30,6 +32,7 @@ struct RunOptions {
     v.Int("steps", steps, 0, int64_t(1) << 50, "total env steps (0: until stopped)");
     v.Int("seed", seed, 0, int64_t(1) << 62, "base seed");
     v.String("dir", dir, {}, "run directory");
+    v.Int("max_restarts", max_restarts, 0, 1000, "restarts of a crashed child before the run stops");
   }
   Status Validate() const {
     if (env.empty()) return Errorf("env must name an environment");

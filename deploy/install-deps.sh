@@ -16,6 +16,8 @@ packages=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # learning-curve PNGs of `coins run` (gnuplot without X11)
+  gnuplot-nox
 )
 
 missing=()

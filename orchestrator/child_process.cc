@@ -13,9 +13,9 @@
 namespace coins {
 
 Result<ChildProcess> ChildProcess::Spawn(std::string name, const std::vector<std::string>& argv,
-                                         const std::string& log_path) {
+                                         const std::string& log_path, bool append) {
   if (access(argv[0].c_str(), X_OK) != 0) return Errorf("{}: cannot execute {}", name, argv[0]);
-  int log = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  int log = open(log_path.c_str(), O_WRONLY | O_CREAT | (append ? O_APPEND : O_TRUNC) | O_CLOEXEC, 0644);
   if (log < 0) return Errorf("{}: cannot open log file {}: {}", name, log_path, std::strerror(errno));
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));

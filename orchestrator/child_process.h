@@ -15,9 +15,10 @@ namespace coins {
 
 class ChildProcess {
  public:
-  // starts argv[0] with the arguments; stdout and stderr go to log_path
+  // starts argv[0] with the arguments; stdout and stderr go to log_path (truncated, or
+  // appended to with append: a restarted child keeps its predecessor's log)
   static Result<ChildProcess> Spawn(std::string name, const std::vector<std::string>& argv,
-                                    const std::string& log_path);
+                                    const std::string& log_path, bool append = false);
 
   const std::string& name() const { return name_; }
   pid_t pid() const { return pid_; }
@@ -25,6 +26,8 @@ class ChildProcess {
   bool Poll();
   bool exited() const { return exited_; }
   bool succeeded() const { return exited_ && WIFEXITED(status_) && WEXITSTATUS(status_) == 0; }
+  // the wait status once exited (WIFEXITED / WEXITSTATUS / WIFSIGNALED apply)
+  int status() const { return status_; }
   // "exited with code 3", "was killed by signal 9 (Killed)"
   std::string Describe() const;
   void Signal(int sig) const;

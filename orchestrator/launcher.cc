@@ -3,55 +3,22 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
+#include <thread>
 
 #include <fmt/format.h>
 
-#include "actors/actor_options.h"
-#include "actors/envs/env.h"
-#include "common/dds/dds_options.h"
 #include "common/process.h"
-#include "common/run_options.h"
-#include "learner/learner_options.h"
 #include "orchestrator/child_process.h"
-#include "orchestrator/orchestrator_options.h"
+#include "orchestrator/run_report.h"
+#include "orchestrator/run_setup.h"
 #include "orchestrator/status_collector.h"
-#include "replay/replay_options.h"
+#include "orchestrator/supervisor.h"
+#include "orchestrator/system_config.h"
 
 namespace coins {
 
 namespace {
-
-struct SystemConfig {
-  DdsOptions dds;
-  RunOptions run;
-  ActorOptions actor;
-  ReplayOptions replay;
-  LearnerOptions learner;
-  OrchestratorOptions orchestrator;
-  ConfigLoader Loader() {
-    return ConfigLoader({ConfigSection::Of("dds", dds), ConfigSection::Of("run", run),
-                         ConfigSection::Of("actor", actor), ConfigSection::Of("replay", replay),
-                         ConfigSection::Of("learner", learner), ConfigSection::Of("orchestrator", orchestrator)});
-  }
-};
-
-// loads the file, applies the flags and overrides, validates everything before any process starts
-Status LoadSystemConfig(const RunFlags& f, SystemConfig& c, std::string* effective) {
-  ConfigLoader loader = c.Loader();
-  if (!f.config.empty()) COINS_RETURN_IF_ERROR(loader.LoadFile(f.config));
-  std::vector<std::string> sets = f.overrides;
-  if (f.actors >= 0) sets.push_back(fmt::format("run.actors={}", f.actors));
-  if (f.shards >= 0) sets.push_back(fmt::format("run.shards={}", f.shards));
-  if (f.steps >= 0) sets.push_back(fmt::format("run.steps={}", f.steps));
-  if (!f.env.empty()) sets.push_back("run.env=" + f.env);
-  if (!f.dir.empty()) sets.push_back("run.dir=" + f.dir);
-  for (const auto& s : sets) COINS_RETURN_IF_ERROR(loader.ApplyOverride(s));
-  COINS_RETURN_IF_ERROR(loader.Validate());
-  auto env = envs::MakeEnv(c.run.env);
-  if (!env.ok()) return env.status().WithContext("run.env");
-  *effective = loader.Dump();
-  return Status::Ok();
-}
 
 std::string Rate(double x) {
   if (x >= 1e6) return fmt::format("{:.2f}M", x / 1e6);
@@ -70,6 +37,139 @@ std::string ProgressLine(const StatusView& v, double elapsed, int64_t actors) {
   return line;
 }
 
+// creates the run directory (fresh: without the previous run's state) and writes config.yaml
+Status PrepareDirectory(const SystemConfig& c, RunPlan* plan, std::string* config_path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(fs::path(c.run.dir) / "logs", ec);
+  if (ec) return Errorf("cannot create run directory {}: {}", c.run.dir, ec.message());
+  if (plan->resume_epoch < 0) COINS_RETURN_IF_ERROR(ClearPreviousRun(c, plan));
+  *config_path = (fs::path(c.run.dir) / "config.yaml").string();
+  std::ofstream(*config_path) << plan->effective;
+  return Status::Ok();
+}
+
+// shards first so actors find them, then learner and orchestrator, then actors; shards, learner
+// and orchestrator of a resumed run start from the epoch's files (first start only)
+Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& config_path, int64_t resume_epoch) {
+  const std::string bin = SelfDirectory();
+  auto spec = [&](const std::string& binary, const std::string& name, int64_t id, bool resumes) {
+    ChildSpec s{name, {bin + "/" + binary, "--config", config_path, "--name", name}, {}, binary == "coins-actor"};
+    if (id >= 0) s.argv.insert(s.argv.end(), {"--id", std::to_string(id)});
+    if (resumes && resume_epoch >= 0) s.first_start = {"--resume-epoch", std::to_string(resume_epoch)};
+    return s;
+  };
+  for (int64_t k = 0; k < c.run.shards; ++k)
+    COINS_RETURN_IF_ERROR(sup.Start(spec("coins-replay", fmt::format("replay-{}", k), k, true)));
+  COINS_RETURN_IF_ERROR(sup.Start(spec("coins-learner", "learner", -1, true)));
+  COINS_RETURN_IF_ERROR(sup.Start(spec("coins-orchestrator", "orchestrator", -1, true)));
+  for (int64_t i = 0; i < c.run.actors; ++i)
+    COINS_RETURN_IF_ERROR(sup.Start(spec("coins-actor", fmt::format("actor-{}", i), i, false)));
+  return Status::Ok();
+}
+
+// one progress line and one metrics row a second
+class Progress {
+ public:
+  Progress(const SystemConfig& c, bool quiet, std::optional<RunMetrics> metrics)
+      : c_(c), quiet_(quiet), metrics_(std::move(metrics)) {}
+  void Tick(const StatusView& v, const Supervisor& sup, std::chrono::steady_clock::time_point now) {
+    if (now < next_) return;
+    next_ = (next_ == std::chrono::steady_clock::time_point{} ? now : next_) + std::chrono::seconds(1);
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    if (!quiet_) std::cout << Line(v, sup, elapsed) << std::endl;
+    const uint64_t steps = v.total_steps();
+    const double rate = elapsed > last_wall_ ? double(steps - std::min(steps, last_steps_)) / (elapsed - last_wall_) : 0;
+    if (metrics_) metrics_->Append(MakeRow(v, elapsed, rate, sup.restarts()));
+    last_steps_ = steps, last_wall_ = elapsed;
+  }
+  std::string Line(const StatusView& v, const Supervisor& sup, double elapsed) const {
+    return ProgressLine(v, elapsed, c_.run.actors) + " | " + ChainProgress(v, sup.restarts());
+  }
+  double elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  std::optional<RunMetrics>& metrics() { return metrics_; }
+
+ private:
+  const SystemConfig& c_;
+  bool quiet_;
+  std::optional<RunMetrics> metrics_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now(), next_{};
+  uint64_t last_steps_ = 0;
+  double last_wall_ = 0;
+};
+
+struct RunOutcome {
+  std::string failure;     // a child that could not be kept running
+  bool chain_done = false; // ChainStatus.phase reached done
+};
+
+// watches children and status until the chain is done, the step budget is reached, a child
+// fails for good, or a stop is requested
+RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemConfig& c, Progress& progress) {
+  RunOutcome out;
+  bool actors_done = false;
+  std::chrono::steady_clock::time_point drain_deadline;
+  while (!StopRequested()) {
+    const auto now = std::chrono::steady_clock::now();
+    for (const auto& e : sup.Poll(now, c.run.steps > 0)) {
+      // restarts are said as they happen; a failure ends the run and is said then
+      if (e.kind == Supervisor::Event::Kind::kRestarting || e.kind == Supervisor::Event::Kind::kRestarted)
+        std::cerr << "coins run: " << e.line << "\n";
+      if (e.kind == Supervisor::Event::Kind::kFailed && out.failure.empty())
+        out.failure = fmt::format("{}; see {}/logs/{}.log", e.line, c.run.dir, e.name);
+    }
+    if (!out.failure.empty()) break;
+    StatusView view = collector.Snapshot();
+    if (view.chain && view.chain->sample.phase() == "done") {
+      out.chain_done = true;
+      break;
+    }
+    // after the actors finish, wait for the shards to hold everything they published
+    if (sup.actors_done() && !actors_done) {
+      actors_done = true;
+      drain_deadline = now + std::chrono::seconds(10);
+    }
+    if (actors_done) {
+      // every actor that finished published exactly its share of run.steps
+      uint64_t expected = uint64_t(c.run.actors) * ((c.run.steps + c.run.actors - 1) / c.run.actors);
+      if (c.actor.steps) expected = uint64_t(c.run.actors) * c.actor.steps;
+      uint64_t stored = 0;
+      for (const auto& [id, s] : view.shards) stored += s.sample.inserted_transitions();
+      if (stored >= expected || now > drain_deadline) break;
+    }
+    progress.Tick(view, sup, now);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return out;
+}
+
+// the chain is done: its phase change cuts an epoch, in which the learner checkpoints the final
+// policy (what `coins eval` loads); waits for it, at most the checkpoint timeout
+void WaitForFinalEpoch(const SystemConfig& c) {
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration<double>(c.orchestrator.checkpoint_timeout_s + 2.0);
+  while (!FinalEpoch(c.run.dir) && std::chrono::steady_clock::now() < end && !StopRequested())
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  if (auto e = FinalEpoch(c.run.dir)) std::cout << "coins run: final checkpoint epoch " << *e << " complete\n";
+  else std::cout << "coins run: no checkpoint epoch of the finished chain completed; the newest checkpoint is used\n";
+}
+
+// the summary (printed and summary.json), learning curves, and the final GIF of a finished chain
+void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup, const SystemConfig& c,
+               bool chain_done) {
+  namespace fs = std::filesystem;
+  nlohmann::json summary = RunSummary(view, progress.elapsed(), sup.restarts());
+  std::cout << FormatSummary(summary);
+  std::ofstream(fs::path(c.run.dir) / "summary.json") << summary.dump(1) << "\n";
+  if (progress.metrics()) {
+    auto plots = progress.metrics()->Plot();
+    if (!plots.ok()) std::cout << "  " << plots.status().message() << "\n";
+    for (const auto& f : plots.ok() ? *plots : std::vector<std::string>{}) std::cout << "  learning curve: " << f << "\n";
+  }
+  std::cout << "  metrics: " << c.run.dir << "/metrics.csv, metrics.jsonl\n";
+  if (chain_done) std::cout << "  " << WriteFinalGif(SelfDirectory() + "/coins", c.run.dir) << "\n";
+}
+
 }  // namespace
 
 void AddRunCommand(CLI::App& app, int* exit_code) {
@@ -81,6 +181,9 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
   run->add_option("--env", flags->env, "environment (run.env), see `coins env list`");
   run->add_option("--steps", flags->steps, "total env steps, 0 = until Ctrl-C (run.steps)")->check(CLI::NonNegativeNumber);
   run->add_option("--dir", flags->dir, "run directory for config and logs (run.dir)");
+  run->add_option("--resume", flags->resume,
+                  "continue the stopped or crashed run in this directory from its newest complete checkpoint epoch "
+                  "(its config.yaml; flags may change only operational keys)");
   run->add_option("--set", flags->overrides, "override a config value: section.key=value (repeatable)");
   run->add_flag("--quiet", flags->quiet, "no progress lines");
   run->callback([flags, exit_code] { *exit_code = RunLocal(*flags); });
@@ -88,23 +191,19 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
 
 int RunLocal(const RunFlags& flags) {
   SystemConfig c;
-  std::string effective;
-  if (Status s = LoadSystemConfig(flags, c, &effective); !s.ok()) {
-    std::cerr << "coins run: " << s.message() << "\n";
+  RunPlan plan;
+  std::string config_path;
+  Status ready = PrepareRun(flags, c, &plan);
+  if (ready.ok()) ready = PrepareDirectory(c, &plan, &config_path);
+  if (!ready.ok()) {
+    std::cerr << "coins run: " << ready.message() << "\n";
     return 2;
   }
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(fs::path(c.run.dir) / "logs", ec);
-  if (ec) {
-    std::cerr << "coins run: cannot create run directory " << c.run.dir << ": " << ec.message() << "\n";
-    return 2;
-  }
-  std::string config_path = (fs::path(c.run.dir) / "config.yaml").string();
-  std::ofstream(config_path) << effective;
+  for (const auto& note : plan.notes) std::cout << note << "\n";
   std::cout << "coins run: " << c.run.env << ", " << c.run.actors << " actors, " << c.run.shards << " shards, "
-            << (c.run.steps ? std::to_string(c.run.steps) + " steps" : std::string("until Ctrl-C"))
-            << "; config and logs in " << c.run.dir << "\n";
+            << (c.run.steps ? std::to_string(c.run.steps) + " steps" : std::string("until the chain is done"))
+            << (plan.resume_epoch >= 0 ? fmt::format(", resuming epoch {}", plan.resume_epoch) : std::string())
+            << ", up to " << c.run.max_restarts << " restarts a child; config and logs in " << c.run.dir << "\n";
 
   InstallStopSignals();
   SetupLogging("coins", "warn");
@@ -119,80 +218,32 @@ int RunLocal(const RunFlags& flags) {
     return 1;
   }
 
-  // children: shards first so actors find them, then learner and orchestrator, then actors
-  std::string bin = SelfDirectory();
-  std::vector<ChildProcess> children;
-  auto spawn = [&](const std::string& binary, const std::string& name, int64_t id) -> Status {
-    std::vector<std::string> argv = {bin + "/" + binary, "--config", config_path, "--name", name};
-    if (id >= 0) argv.insert(argv.end(), {"--id", std::to_string(id)});
-    auto child = ChildProcess::Spawn(name, argv, (fs::path(c.run.dir) / "logs" / (name + ".log")).string());
-    if (!child.ok()) return child.status();
-    children.push_back(std::move(*child));
-    return Status::Ok();
-  };
-  Status started = Status::Ok();
-  for (int64_t k = 0; k < c.run.shards && started.ok(); ++k) started = spawn("coins-replay", fmt::format("replay-{}", k), k);
-  if (started.ok()) started = spawn("coins-learner", "learner", -1);
-  if (started.ok()) started = spawn("coins-orchestrator", "orchestrator", -1);
-  for (int64_t i = 0; i < c.run.actors && started.ok(); ++i) started = spawn("coins-actor", fmt::format("actor-{}", i), i);
-  if (!started.ok()) {
+  Supervisor sup((std::filesystem::path(c.run.dir) / "logs").string(), c.run.max_restarts);
+  std::vector<ChildProcess>& children = sup.children();
+  if (Status started = StartChildren(sup, c, config_path, plan.resume_epoch); !started.ok()) {
     std::cerr << "coins run: " << started.message() << "\n";
     StopAll(children, std::chrono::seconds(5));
     return 1;
   }
-
-  auto start = std::chrono::steady_clock::now();
-  auto next_line = start + std::chrono::seconds(1);
-  std::string failure;
-  bool actors_done = false;
-  std::chrono::steady_clock::time_point drain_deadline;
-  while (!StopRequested()) {
-    // a child that ends on its own: actors that finished their steps are fine, anything else is a failure
-    bool all_actors_done = true;
-    for (auto& child : children) {
-      bool is_actor = child.name().rfind("actor-", 0) == 0;
-      if (child.Poll() && !(is_actor && c.run.steps > 0 && child.succeeded())) {
-        failure = fmt::format("{} (pid {}) {}; see {}/logs/{}.log", child.name(), child.pid(), child.Describe(),
-                              c.run.dir, child.name());
-        break;
-      }
-      if (is_actor && !child.exited()) all_actors_done = false;
-    }
-    if (!failure.empty()) break;
-    StatusView view = (*collector)->Snapshot();
-    // after the actors finish, wait for the shards to hold everything they published
-    if (all_actors_done && !actors_done) {
-      actors_done = true;
-      drain_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    }
-    if (actors_done) {
-      // every actor that finished published exactly its share of run.steps
-      uint64_t expected = uint64_t(c.run.actors) * ((c.run.steps + c.run.actors - 1) / c.run.actors);
-      if (c.actor.steps) expected = uint64_t(c.run.actors) * c.actor.steps;
-      uint64_t stored = 0;
-      for (const auto& [id, s] : view.shards) stored += s.sample.inserted_transitions();
-      if (stored >= expected || std::chrono::steady_clock::now() > drain_deadline) break;
-    }
-    auto now = std::chrono::steady_clock::now();
-    if (now >= next_line && !flags.quiet) {
-      std::cout << ProgressLine(view, std::chrono::duration<double>(now - start).count(), c.run.actors) << std::endl;
-      next_line += std::chrono::seconds(1);
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
+  auto metrics = RunMetrics::Open(c.run.dir);
+  if (!metrics.ok()) std::cerr << "coins run: " << metrics.status().message() << "\n";
+  Progress progress(c, flags.quiet, metrics.ok() ? std::optional<RunMetrics>(std::move(*metrics)) : std::nullopt);
+  RunOutcome outcome = WatchRun(sup, **collector, c, progress);
+  if (outcome.chain_done) WaitForFinalEpoch(c);
+  const std::string& failure = outcome.failure;
 
   if (!failure.empty()) std::cerr << "coins run: " << failure << "; stopping the other processes\n";
+  else if (outcome.chain_done) std::cout << "coins run: the chain is done; stopping every process\n";
   else if (StopRequested()) std::cout << "coins run: stopping (interrupted)\n";
   StopAll(children, std::chrono::seconds(10));
   // the final reports of the last processes may still be on their way
   auto reported = [&] { return (*collector)->Snapshot().actors.size() >= size_t(c.run.actors); };
   for (int i = 0; i < 40 && !reported(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   StatusView view = (*collector)->Snapshot();
-  std::cout << ProgressLine(view, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                            c.run.actors)
-            << "\n";
+  std::cout << progress.Line(view, sup, progress.elapsed()) << "\n";
   for (const auto& child : children)
     if (!child.succeeded()) std::cout << "  " << child.name() << " " << child.Describe() << "\n";
+  ReportRun(view, progress, sup, c, outcome.chain_done);
   return failure.empty() ? 0 : 1;
 }
 

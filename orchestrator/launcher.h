@@ -1,7 +1,10 @@
 // `coins run`: starts a whole run on one machine as child processes (replay shards, learner,
-// orchestrator, actors), shows live progress from the DDS status topics, and stops every child
-// cleanly on Ctrl-C, when the step budget is reached, or when one child dies (saying which
-// and why).
+// orchestrator, actors), shows live progress from the DDS status topics (the chain too), restarts
+// a child that crashes (run.max_restarts per child, supervisor.h), and stops every child cleanly
+// on Ctrl-C, when the chain is done (exit 0), when the step budget is reached, or when a child
+// cannot be kept running (saying which and why). At the end it prints a summary and writes
+// metrics, learning curves and the final GIF into the run directory (run_report.h).
+// `coins run --resume RUN_DIR` continues a stopped or crashed run (run_setup.h).
 #pragma once
 
 #include <string>
@@ -18,6 +21,7 @@ struct RunFlags {
   int64_t steps = -1;
   std::string env;
   std::string dir;
+  std::string resume;        // --resume RUN_DIR: continue that run from its newest complete epoch
   std::vector<std::string> overrides;
   bool quiet = false;        // no progress lines
 };

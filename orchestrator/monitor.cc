@@ -26,6 +26,39 @@ double Age(const StatusView::Clock::time_point& t) {
   return std::chrono::duration<double>(StatusView::Clock::now() - t).count();
 }
 
+std::string Floats(const std::vector<float>& x) {
+  std::string out;
+  for (size_t i = 0; i < x.size() && i < 12; ++i) out += (i ? " " : "") + fmt::format("{:g}", x[i]);
+  return "[" + out + (x.size() > 12 ? " ..." : "") + "]";
+}
+
+// the chain: phase, links with Sc_I, masks, goal sets and skill success, the newest scores,
+// the newest evaluation, the learner
+std::string ChainTable(const StatusView& v) {
+  std::ostringstream out;
+  if (!v.chain) return "\nchain: no ChainStatus yet\n";
+  const auto& c = v.chain->sample;
+  out << fmt::format("\nchain: phase {}, source {}, round {}, env steps {}, epoch {}\n  {}\n", c.phase(), c.source(),
+                     c.round(), c.env_steps(), c.epoch(), c.message());
+  for (const auto& l : c.links())
+    out << fmt::format("  link {}->{}: Sc_I {:.2f}, {}, success {:.3f}, accepted at {}, learned at {}\n    mask {} goals {} {}\n",
+                       l.source(), l.target(), l.score(), l.state(), l.skill_success(), l.accepted_at_steps(),
+                       l.learned_at_steps(), Floats(l.mask()), l.goal_kind(), Floats(l.goal_set()));
+  for (const auto& s : c.last_scores())
+    out << fmt::format("  score {}->{}: Sc_I {:.2f}{}{}\n", s.source(), s.target(), s.score(),
+                       s.eligible() ? "" : " (not eligible)", s.note().empty() ? "" : " " + s.note());
+  if (c.eval_env_steps())
+    out << fmt::format("  eval return {:.2f} +- {:.2f} at {} env steps\n", c.eval_return_mean(), c.eval_return_sd(),
+                       c.eval_env_steps());
+  if (v.learner) {
+    const auto& l = v.learner->sample;
+    out << fmt::format("  learner: job {} ({}), {} updates ({:.0f}/s), lag median {:.1f} p99 {:.1f}, checkpoint epoch {}\n",
+                       l.job(), l.state(), l.updates(), l.updates_per_s(), l.lag_median(), l.lag_p99(),
+                       l.checkpoint_epoch());
+  }
+  return out.str();
+}
+
 std::string Table(const StatusView& v) {
   std::ostringstream out;
   out << fmt::format("{:<16} {:<13} {:>8} {:>10} {:>6}\n", "process", "role", "pid", "uptime_s", "seen");
@@ -46,13 +79,7 @@ std::string Table(const StatusView& v) {
     out << fmt::format("{:<8} {:>12} {:>12} {:>6.1f}% {:>12.0f} {:>6} {:>6} {:>8}\n", id, r.size(), r.capacity(), fill,
                        r.insert_rate(), r.duplicates(), r.gaps(), r.rejected());
   }
-  if (v.chain) {
-    const auto& c = v.chain->sample;
-    out << fmt::format("\nchain: phase {}, env steps {}, {} links\n", c.phase(), c.env_steps(), c.links().size());
-    for (const auto& l : c.links())
-      out << fmt::format("  {}->{} score {:.2f} {} success {:.2f}\n", l.source(), l.target(), l.score(), l.state(),
-                         l.skill_success());
-  }
+  out << ChainTable(v);
   return out.str();
 }
 
@@ -72,7 +99,22 @@ nlohmann::json Json(const StatusView& v) {
     j["shards"].push_back({{"shard_id", id}, {"size", s.sample.size()}, {"capacity", s.sample.capacity()},
                            {"inserted_transitions", s.sample.inserted_transitions()},
                            {"insert_rate", s.sample.insert_rate()}, {"rejected", s.sample.rejected()}});
-  if (v.chain) j["chain"] = {{"phase", v.chain->sample.phase()}, {"env_steps", v.chain->sample.env_steps()}};
+  if (v.chain) {
+    const auto& c = v.chain->sample;
+    nlohmann::json links = nlohmann::json::array();
+    for (const auto& l : c.links())
+      links.push_back({{"source", l.source()}, {"target", l.target()}, {"score", l.score()}, {"state", l.state()},
+                       {"skill_success", l.skill_success()}, {"mask", l.mask()}, {"goal_kind", l.goal_kind()},
+                       {"goal_set", l.goal_set()}, {"accepted_at_steps", l.accepted_at_steps()},
+                       {"learned_at_steps", l.learned_at_steps()}});
+    j["chain"] = {{"phase", c.phase()}, {"env_steps", c.env_steps()}, {"source", c.source()}, {"round", c.round()},
+                  {"epoch", c.epoch()}, {"message", c.message()}, {"links", links},
+                  {"eval_return_mean", c.eval_return_mean()}, {"eval_return_sd", c.eval_return_sd()},
+                  {"eval_env_steps", c.eval_env_steps()}};
+  }
+  if (v.learner)
+    j["learner"] = {{"job", v.learner->sample.job()}, {"state", v.learner->sample.state()},
+                    {"updates", v.learner->sample.updates()}, {"lag_median", v.learner->sample.lag_median()}};
   return j;
 }
 

@@ -1,55 +1,76 @@
-// coins-orchestrator: runs the chain state machine (paper Algorithm 1) and publishes
-// ChainStatus. At this stage the chain has one phase, collecting random-policy data; the
-// detection and skill phases join as the learner grows.
+// coins-orchestrator: runs the chain state machine (paper Algorithm 1, chain_machine.h) over DDS
+// (chain_adapter.h): publishes ChainCommand and ChainStatus, reads InteractionScores,
+// LearnerStatus, ActorStats and ReplayStats, cuts checkpoint epochs, and persists its state in
+// RUN_DIR/chain. A restarted orchestrator continues from chain.json; --resume-epoch N continues
+// from chain-epoch-N.json. A corrupt state file or one of another config stops it at start with
+// one line, and the file is left as it is.
 #include <spdlog/spdlog.h>
 
+#include <filesystem>
+
+#include "actors/envs/env.h"
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "common/process.h"
-#include "common/run_options.h"
+#include "idl/controlPubSubTypes.h"
 #include "idl/statusPubSubTypes.h"
-#include "orchestrator/orchestrator_options.h"
-#include "orchestrator/status_collector.h"
+#include "orchestrator/chain_adapter.h"
 
 namespace coins {
 namespace {
 
+// the writers the adapter needs, or the first error
+Result<ChainAdapter::Io> OpenTopics(dds::Node& node, dds::Heartbeat* heartbeat, StatusCollector* collector) {
+  auto command = node.MakeWriter<msg::ChainCommandPubSubType>(dds::kChainCommandTopic, dds::LatchedWriterQos());
+  auto status = node.MakeWriter<msg::ChainStatusPubSubType>(dds::kChainStatusTopic, dds::LatchedWriterQos());
+  auto control = node.MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos());
+  for (const Status* s : {&command.status(), &status.status(), &control.status()})
+    if (!s->ok()) return *s;
+  return ChainAdapter::Io{*command, *status, *control, collector, heartbeat};
+}
+
 int OrchestratorMain(int argc, char** argv) {
   ProcessMain main("coins-orchestrator", "Runs the chain of interaction skills and publishes ChainStatus.");
-  RunOptions run;
-  OrchestratorOptions options;
-  main.AddSection(ConfigSection::Of("run", run));
-  main.AddSection(ConfigSection::Of("orchestrator", options));
+  SystemConfig config;
+  int64_t resume_epoch = -1;
+  for (auto& section : config.Sections(false)) main.AddSection(section);
+  main.app().add_option("--resume-epoch", resume_epoch,
+                        "continue from chain-epoch-N.json (coins run --resume); default: chain.json")
+      ->check(CLI::NonNegativeNumber);
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (main.name() == "coins-orchestrator") main.name() = "orchestrator";
+
+  auto env = envs::MakeEnv(config.run.env);
+  if (!env.ok()) {
+    spdlog::error("run.env: {}", env.status().message());
+    return 2;
+  }
+  chain::ChainStore store(std::filesystem::path(config.run.dir) / "chain", ChainFingerprint(config.Values()));
+  auto machine = OpenChain(store, (*env)->spec(), config.orchestrator, resume_epoch);
+  if (!machine.ok()) {
+    spdlog::error("{}", machine.status().message());
+    return 1;
+  }
 
   auto node = dds::Node::Create(main.dds(), main.name());
   if (!node.ok()) {
     spdlog::error("{}", node.status().message());
     return 1;
   }
-  auto chain_writer = (*node)->MakeWriter<msg::ChainStatusPubSubType>(dds::kChainStatusTopic, dds::LatchedWriterQos());
   auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "orchestrator");
   auto collector = StatusCollector::Start(**node);
-  if (!chain_writer.ok() || !heartbeat.ok() || !collector.ok()) {
-    spdlog::error("cannot open DDS topics: {}{}{}", chain_writer.status().message(), heartbeat.status().message(),
-                  collector.status().message());
+  Result<ChainAdapter::Io> io = heartbeat.ok() && collector.ok()
+                                    ? OpenTopics(**node, &*heartbeat, collector->get())
+                                    : Result<ChainAdapter::Io>(Errorf("{}{}", heartbeat.status().message(),
+                                                                      collector.status().message()));
+  if (!io.ok()) {
+    spdlog::error("cannot open DDS topics: {}", io.status().message());
     return 1;
   }
-  msg::ChainStatus chain;
-  chain.schema_version(msg::STATUS_SCHEMA);
-  chain.run_id(run.dir);
-  chain.phase("collecting");
-  auto period = std::chrono::milliseconds(static_cast<int64_t>(options.status_period_s * 1000));
-  while (!SleepUnlessStopped(period)) {
-    chain.env_steps((*collector)->Snapshot().total_steps());
-    chain_writer->Write(chain);
-    heartbeat->Publish("running");
-  }
-  heartbeat->Publish("stopping");
-  spdlog::info("stopped at {} env steps", chain.env_steps());
-  return 0;
+  config.dds = main.dds();
+  ChainAdapter adapter(std::move(*machine), std::move(store), *io, config);
+  return adapter.Run();
 }
 
 }  // namespace

@@ -29,12 +29,16 @@ Result<std::unique_ptr<StatusCollector>> StatusCollector::Start(dds::Node& node)
   auto ac = node.MakeReader<msg::ActorStatsPubSubType>(dds::kActorStatsTopic, dds::StatusReaderQos());
   auto sh = node.MakeReader<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusReaderQos());
   auto ch = node.MakeReader<msg::ChainStatusPubSubType>(dds::kChainStatusTopic, dds::LatchedReaderQos());
-  for (const Status* s : {&hb.status(), &ac.status(), &sh.status(), &ch.status()})
+  auto le = node.MakeReader<msg::LearnerStatusPubSubType>(dds::kLearnerStatusTopic, dds::StatusReaderQos());
+  auto sc = node.MakeReader<msg::InteractionScoresPubSubType>(dds::kScoresTopic, dds::StatusReaderQos());
+  for (const Status* s : {&hb.status(), &ac.status(), &sh.status(), &ch.status(), &le.status(), &sc.status()})
     if (!s->ok()) return *s;
   c->heartbeats_ = *hb;
   c->actors_ = *ac;
   c->shards_ = *sh;
   c->chain_ = *ch;
+  c->learner_ = *le;
+  c->scores_ = *sc;
   c->thread_ = std::thread([p = c.get()] { p->Loop(); });
   return c;
 }
@@ -49,6 +53,13 @@ StatusView StatusCollector::Snapshot() const {
   return view_;
 }
 
+std::vector<msg::InteractionScores> StatusCollector::TakeScores() {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<msg::InteractionScores> out(queued_scores_.begin(), queued_scores_.end());
+  queued_scores_.clear();
+  return out;
+}
+
 void StatusCollector::Loop() {
   while (!stop_) {
     // the status topics are slow (about 1 Hz per process): poll them every 50 ms
@@ -59,6 +70,15 @@ void StatusCollector::Loop() {
     actors_.TakeAll([&](const msg::ActorStats& s, const auto&) { view_.actors[s.actor_id()] = {s, now}; });
     shards_.TakeAll([&](const msg::ReplayStats& s, const auto&) { view_.shards[s.shard_id()] = {s, now}; });
     chain_.TakeAll([&](const msg::ChainStatus& s, const auto&) { view_.chain = StatusView::Entry<msg::ChainStatus>{s, now}; });
+    learner_.TakeAll([&](const msg::LearnerStatus& s, const auto&) {
+      view_.learner = StatusView::Entry<msg::LearnerStatus>{s, now};
+      view_.learner_reports++;
+    });
+    scores_.TakeAll([&](const msg::InteractionScores& s, const auto&) {
+      view_.scores = StatusView::Entry<msg::InteractionScores>{s, now};
+      queued_scores_.push_back(s);
+      if (queued_scores_.size() > kMaxQueuedScores) queued_scores_.pop_front();
+    });
   }
 }
 

@@ -1,10 +1,13 @@
 // StatusCollector: subscribes to the status topics (heartbeats, ActorStats, ReplayStats,
-// ChainStatus) and keeps the newest sample of each process, with the time it arrived. A
-// background thread takes the samples; Snapshot() copies the current view under a lock.
+// ChainStatus, LearnerStatus, InteractionScores) and keeps the newest sample of each process,
+// with the time it arrived. A background thread takes the samples; Snapshot() copies the current
+// view under a lock. Every InteractionScores message is also queued (bounded) for TakeScores():
+// each detect round's answer matters, not only the newest.
 #pragma once
 
 #include <atomic>
 #include <chrono>
+#include <deque>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -27,6 +30,9 @@ struct StatusView {
   std::map<uint32_t, Entry<msg::ActorStats>> actors;                // by actor id
   std::map<uint32_t, Entry<msg::ReplayStats>> shards;               // by shard id
   std::optional<Entry<msg::ChainStatus>> chain;
+  std::optional<Entry<msg::LearnerStatus>> learner;
+  uint64_t learner_reports = 0;                                     // LearnerStatus samples so far
+  std::optional<Entry<msg::InteractionScores>> scores;              // the newest
 
   // env steps of the run: the larger of what actors reported and what shards stored
   uint64_t total_steps() const;
@@ -39,6 +45,10 @@ class StatusCollector {
   static Result<std::unique_ptr<StatusCollector>> Start(dds::Node& node);
   ~StatusCollector();
   StatusView Snapshot() const;
+  // the InteractionScores received since the last call, oldest first (at most kMaxQueuedScores;
+  // older ones are dropped when nobody takes them)
+  std::vector<msg::InteractionScores> TakeScores();
+  static constexpr size_t kMaxQueuedScores = 64;
 
  private:
   StatusCollector() = default;
@@ -48,8 +58,11 @@ class StatusCollector {
   dds::Reader<msg::ActorStats> actors_;
   dds::Reader<msg::ReplayStats> shards_;
   dds::Reader<msg::ChainStatus> chain_;
+  dds::Reader<msg::LearnerStatus> learner_;
+  dds::Reader<msg::InteractionScores> scores_;
   mutable std::mutex mu_;
   StatusView view_;
+  std::deque<msg::InteractionScores> queued_scores_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

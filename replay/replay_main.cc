@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "common/checkpoint.h"
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
@@ -124,10 +125,14 @@ int ReplayMain(int argc, char** argv) {
   int64_t id = 0;
   std::string stats_out;
   bool new_config = false;
+  int64_t resume_epoch = -1;
   main.AddSection(ConfigSection::Of("run", run));
   main.AddSection(ConfigSection::Of("replay", options));
   main.app().add_option("--id", id, "shard id, in [0, run.shards)")->check(CLI::Range(0, 1 << 20));
   main.app().add_option("--stats-out", stats_out, "write the final ReplayStats as JSON to this file");
+  main.app().add_option("--resume-epoch", resume_epoch,
+                        "resume the snapshot of checkpoint epoch N (coins run --resume); default: the newest snapshot")
+      ->check(CLI::NonNegativeNumber);
   main.app().add_flag("--new-config", new_config,
                       "on resume, this config wins over the snapshot's (same as replay.prefer_new_config=true)");
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
@@ -140,13 +145,18 @@ int ReplayMain(int argc, char** argv) {
 
   // resume before joining DDS: a shard that is not ready does not take data
   ResumeReport resume;
-  auto service_or = ReplayService::Open(uint32_t(id), options, &resume);
+  // --resume-epoch N: the snapshot of checkpoint epoch N (coins run --resume)
+  const uint64_t resume_command = resume_epoch >= 0 ? CheckpointCommandId(uint64_t(resume_epoch)) : 0;
+  auto service_or = ReplayService::Open(uint32_t(id), options, &resume, resume_command);
   for (const auto& c : resume.corrupt) spdlog::warn("skipped snapshot: {}", c);
   if (!service_or.ok()) {
     spdlog::error("{}", service_or.status().message());
     return 1;
   }
   ReplayService& service = **service_or;
+  if (resume_command != 0 && resume.snapshot.empty())
+    spdlog::warn("no snapshot of epoch {} in '{}' ({} of other commands): starting empty (a shard that held "
+                 "nothing at the cut writes none)", resume_epoch, options.snapshot_dir, resume.other_command.size());
   if (!resume.snapshot.empty()) {
     spdlog::info("resumed {} transitions from {} in {:.3f} s", resume.transitions, resume.snapshot, resume.seconds);
     for (const auto& c : resume.config_changes)
@@ -255,7 +265,8 @@ int ReplayMain(int argc, char** argv) {
     control->TakeAll(cmd, [&](const msg::Control& c, const auto&) {
       bool mine = c.target() == "all" || c.target() == "replay" || c.target() == main.name();
       if (!mine || !commands_seen.insert(c.command_id()).second) return;
-      if (c.command() == msg::CONTROL_SNAPSHOT) snapshots.Push(c.command_id());
+      // a checkpoint epoch's snapshot is a snapshot stamped with the epoch's command id
+      if (c.command() == msg::CONTROL_SNAPSHOT || c.command() == msg::CONTROL_CHECKPOINT) snapshots.Push(c.command_id());
       if (c.command() == msg::CONTROL_STOP) RequestStop();
     });
     auto now = std::chrono::steady_clock::now();

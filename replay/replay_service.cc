@@ -12,7 +12,7 @@ ReplayService::ReplayService(uint32_t shard_id, const ReplayOptions& options)
       rng_(0x5eed0000ULL + shard_id) {}
 
 Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, ReplayOptions options,
-                                                           ResumeReport* report) {
+                                                           ResumeReport* report, uint64_t resume_command) {
   auto start = std::chrono::steady_clock::now();
   SnapshotImage image;
   bool have = false;
@@ -22,6 +22,11 @@ Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, Re
       auto img = ReadSnapshot(path);
       if (!img.ok()) {
         report->corrupt.push_back(img.status().message());
+        continue;
+      }
+      const uint64_t command = img->meta.value("command_id", uint64_t(0));
+      if (resume_command != 0 && command != resume_command) {
+        report->other_command.push_back(fmt::format("{} (command {})", path.string(), command));
         continue;
       }
       image = std::move(*img);

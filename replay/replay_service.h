@@ -5,7 +5,9 @@
 //
 // Start-up: Open() resumes from the newest valid snapshot in options.snapshot_dir (corrupt or
 // truncated ones are reported and skipped, older ones tried); a config that differs from the
-// snapshot's is reported, and the snapshot's wins unless options.prefer_new_config.
+// snapshot's is reported, and the snapshot's wins unless options.prefer_new_config. With
+// resume_command (a checkpoint epoch's command id, common/checkpoint.h), only a snapshot written
+// for that command counts; without one the shard starts empty.
 #pragma once
 
 #include <atomic>
@@ -26,6 +28,7 @@ namespace coins {
 struct ResumeReport {
   std::string snapshot;                    // the snapshot resumed from ("" = none)
   std::vector<std::string> corrupt;        // one line per snapshot skipped
+  std::vector<std::string> other_command;  // snapshots skipped: not of the command asked for
   std::vector<std::string> config_changes; // "key: snapshot -> new"
   bool new_config_won = false;
   uint64_t transitions = 0;
@@ -41,7 +44,8 @@ struct ServiceCounters {
 class ReplayService {
  public:
   // options are checked (rate limiter deadlock rules) by ReplayOptions::Validate first
-  static Result<std::unique_ptr<ReplayService>> Open(uint32_t shard_id, ReplayOptions options, ResumeReport* report);
+  static Result<std::unique_ptr<ReplayService>> Open(uint32_t shard_id, ReplayOptions options, ResumeReport* report,
+                                                     uint64_t resume_command = 0);
 
   enum class InsertResult { kStored, kDuplicate, kRejected, kTimedOut };
   // validates, waits for the rate limiter (up to timeout), stores

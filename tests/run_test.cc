@@ -40,7 +40,8 @@ TEST(Run, ReachesItsStepBudgetAndStopsCleanly) {
 
 TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
   auto dir = TempDir("run-death");
-  std::string cmd = Bin("coins") + " run --steps 0 --actors 1 --shards 1" + RunFlags(dir / "run", TestDomain(4));
+  std::string cmd = Bin("coins") + " run --steps 0 --actors 1 --shards 1 --set run.max_restarts=0" +
+                    RunFlags(dir / "run", TestDomain(4));
   // kill the shard once it is up; coins run must notice, say which and how, and exit non-zero
   // ([c] keeps the patterns from matching the shell that runs pgrep itself)
   std::thread killer([&] {
@@ -53,7 +54,7 @@ TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
   killer.join();
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_NE(r.output.find("replay-0 (pid"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("was killed by signal 9 (Killed)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("was killed by signal 9 (Killed); restarts exhausted (0/0)"), std::string::npos) << r.output;
   // nothing of the run is left behind
   EXPECT_NE(RunCommand("pgrep -f '[c]oins-actor.*" + (dir / "run").string() + "'").code, 0);
 }
@@ -61,9 +62,9 @@ TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
 TEST(Run, MonitorSeesEveryProcess) {
   auto dir = TempDir("run-monitor");
   int domain = TestDomain(5);
-  // random actions: the chain does not pace the actors here
+  // the chain stays in collecting (its detect point out of reach): every process reports freely
   std::string cmd = Bin("coins") + " run --steps 0 --actors 2 --shards 1 --quiet" + RunFlags(dir / "run", domain) +
-                    " --set actor.follow_chain=false";
+                    " --set orchestrator.detect_every_steps=1000000000 --set orchestrator.detect_budget_steps=1000000000";
   std::vector<ChildProcess> run;
   auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + cmd}, (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
@@ -86,7 +87,11 @@ TEST(Run, MonitorSeesEveryProcess) {
   EXPECT_GT(j["actors"][0]["steps"].get<uint64_t>(), 0u);
   ASSERT_EQ(j["shards"].size(), 1u);
   EXPECT_GT(j["shards"][0]["inserted_transitions"].get<uint64_t>(), 0u);
-  EXPECT_EQ(j["chain"]["phase"], "collecting");
+  // the orchestrator's chain: collecting random-action data for Action
+  ASSERT_TRUE(j["chain"].is_object()) << r.output;
+  EXPECT_EQ(j["chain"]["phase"], "collecting") << j["chain"];
+  EXPECT_EQ(j["chain"]["source"], "Action") << j["chain"];
+  EXPECT_NE(j["chain"]["message"].get<std::string>().find("collecting for source Action"), std::string::npos) << j["chain"];
   // coins run stopped on SIGTERM like on Ctrl-C: exit 0
   EXPECT_TRUE(run[0].succeeded()) << run[0].Describe();
 }

@@ -1,0 +1,157 @@
+// ChainStore: atomic writes, corrupt files, states of another config, epochs.
+#include "orchestrator/chain_store.h"
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace coins::chain {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path FreshDir(const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("coins-chain-store-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+ConfigValues Fingerprint(const std::string& eps = "3") {
+  return {{"orchestrator.eps_si", eps}, {"run.env", "breakout"}, {"run.seed", "1"}};
+}
+
+ChainState SomeState() {
+  ChainState s;
+  s.phase = Phase::kTrainingSkill;
+  s.seq = 7;
+  s.source = "Action";
+  Link l;
+  l.spec = LinkSpec{"Action", "Paddle", 6.25, {1, 0, 0}, "continuous", {-1.0f, 1.0f}, 0.5};
+  l.accepted_at_steps = 10'000;
+  l.success = SuccessTracker{true, 300, 250, 3, 0.8, 0.85, 14'000};
+  s.links.push_back(l);
+  Score sc;
+  sc.source = "Action";
+  sc.target = "Ball";
+  sc.score = std::nan("");
+  sc.note = "no interactions";
+  s.last_scores.push_back(sc);
+  s.round = 2;
+  s.next_detect = 20'000;
+  s.phase_start = 20'000;
+  s.env_steps = 23'456;
+  s.eval = Eval{20'000, 1.5, 0.5, 10};
+  s.epoch = 4;
+  s.last_cut_epoch = 5;
+  s.note = "Action->Paddle accepted";
+  return s;
+}
+
+TEST(ChainStore, SavedStateLoadsBackWhole) {
+  ChainStore store(FreshDir("roundtrip"), Fingerprint());
+  ChainState s = SomeState();
+  ASSERT_TRUE(store.Save(s).ok());
+  auto loaded = store.Load();
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message();
+  ASSERT_TRUE(loaded->has_value());
+  const ChainState& l = **loaded;
+  EXPECT_TRUE(std::isnan(l.last_scores.at(0).score));  // NaN travels as null
+  ChainState expected = s;
+  expected.last_scores[0].score = 0;
+  ChainState got = l;
+  got.last_scores[0].score = 0;
+  EXPECT_EQ(got, expected);
+  EXPECT_FALSE(fs::exists(store.StatePath().string() + ".tmp"));
+}
+
+TEST(ChainStore, NoStateFileMeansAFreshChain) {
+  ChainStore store(FreshDir("absent"), Fingerprint());
+  auto loaded = store.Load();
+  ASSERT_TRUE(loaded.ok());
+  EXPECT_FALSE(loaded->has_value());
+}
+
+TEST(ChainStore, AFailedWriteLeavesThePreviousStateWhole) {
+  ChainStore store(FreshDir("atomic"), Fingerprint());
+  ChainState a = SomeState();
+  ASSERT_TRUE(store.Save(a).ok());
+  const std::string before = ReadText(store.StatePath());
+  // the temporary file cannot be created (a directory sits at its path)
+  fs::create_directories(store.StatePath().string() + ".tmp");
+  ChainState b = a;
+  b.seq = 8;
+  Status s = store.Save(b);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("chain.json.tmp"), std::string::npos) << s.message();
+  EXPECT_EQ(ReadText(store.StatePath()), before);
+  fs::remove_all(store.StatePath().string() + ".tmp");
+  ASSERT_TRUE(store.Save(b).ok());
+  EXPECT_EQ((*store.Load())->seq, 8u);
+}
+
+TEST(ChainStore, CorruptFilesAreRefusedAndNotOverwritten) {
+  ChainStore store(FreshDir("corrupt"), Fingerprint());
+  ASSERT_TRUE(store.Save(SomeState()).ok());
+  const std::string good = ReadText(store.StatePath());
+  for (const std::string& text : {good.substr(0, good.size() / 2), std::string("{\"format\": 3}"), std::string("")}) {
+    std::ofstream(store.StatePath()) << text;
+    auto loaded = store.Load();
+    ASSERT_FALSE(loaded.ok()) << text;
+    EXPECT_NE(loaded.status().message().find("corrupt"), std::string::npos) << loaded.status().message();
+    EXPECT_NE(loaded.status().message().find(store.StatePath().string()), std::string::npos);
+    EXPECT_EQ(ReadText(store.StatePath()), text);
+  }
+  // a field of the wrong type is named
+  std::string bad = good;
+  bad.replace(bad.find("\"seq\": 7"), 8, "\"seq\": \"7\"");
+  std::ofstream(store.StatePath()) << bad;
+  auto loaded = store.Load();
+  ASSERT_FALSE(loaded.ok());
+  EXPECT_NE(loaded.status().message().find("state.seq"), std::string::npos) << loaded.status().message();
+}
+
+TEST(ChainStore, AStateOfAnotherConfigIsRefusedNamingTheKey) {
+  fs::path dir = FreshDir("config");
+  ASSERT_TRUE(ChainStore(dir, Fingerprint("3")).Save(SomeState()).ok());
+  auto loaded = ChainStore(dir, Fingerprint("5")).Load();
+  ASSERT_FALSE(loaded.ok());
+  EXPECT_NE(loaded.status().message().find("orchestrator.eps_si is 5 here, 3 in"), std::string::npos)
+      << loaded.status().message();
+  ConfigValues more = Fingerprint();
+  more["learner.lr"] = "0.001";
+  auto other = ChainStore(dir, more).Load();
+  ASSERT_FALSE(other.ok());
+  EXPECT_NE(other.status().message().find("learner.lr"), std::string::npos) << other.status().message();
+}
+
+TEST(ChainStore, EpochFilesAreListedAndLoaded) {
+  fs::path dir = FreshDir("epochs");
+  ChainStore store(dir, Fingerprint());
+  ChainState s = SomeState();
+  for (uint64_t e : {10u, 2u}) {
+    s.epoch = e;
+    ASSERT_TRUE(store.SaveEpoch(s).ok());
+  }
+  std::ofstream(dir / "chain-epoch-x.json") << "{}";
+  EXPECT_EQ(ChainStore::Epochs(dir), (std::vector<uint64_t>{2, 10}));
+  auto two = store.LoadEpoch(2);
+  ASSERT_TRUE(two.ok());
+  EXPECT_EQ(two->epoch, 2u);
+  auto missing = store.LoadEpoch(3);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find("no complete epoch 3"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace coins::chain

@@ -1,0 +1,264 @@
+#include "orchestrator/run_report.h"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "orchestrator/child_process.h"
+
+namespace coins {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string Short(double x) {
+  if (x >= 1e6) return fmt::format("{:.2f}M", x / 1e6);
+  if (x >= 1e3) return fmt::format("{:.1f}k", x / 1e3);
+  return fmt::format("{:.0f}", x);
+}
+
+std::string FindInPath(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::stringstream dirs(path ? path : "/usr/bin:/bin");
+  std::string d;
+  while (std::getline(dirs, d, ':'))
+    if (!d.empty() && access((d + "/" + name).c_str(), X_OK) == 0) return d + "/" + name;
+  return "";
+}
+
+// runs argv to its end within timeout (killed after it); the exit status or an error
+Result<int> RunBounded(const std::vector<std::string>& argv, const std::string& log, std::chrono::seconds timeout) {
+  auto child = ChildProcess::Spawn(fs::path(argv[0]).filename().string(), argv, log);
+  if (!child.ok()) return child.status();
+  if (!child->WaitFor(timeout)) {
+    child->Signal(SIGKILL);
+    child->WaitFor(std::chrono::seconds(5));
+    return Errorf("{} did not finish within {} s (killed); see {}", argv[0], timeout.count(), log);
+  }
+  return child->status();
+}
+
+bool Succeeded(const Result<int>& r) { return r.ok() && WIFEXITED(r.value()) && WEXITSTATUS(r.value()) == 0; }
+
+std::string Mask(const std::vector<float>& m) {
+  std::string out;
+  for (float x : m) out += (out.empty() ? "" : " ") + fmt::format("{:g}", x);
+  return "[" + out + "]";
+}
+
+std::string Goals(const std::string& kind, const std::vector<float>& g, size_t mask_dims) {
+  if (kind == "continuous" && g.size() % 2 == 0 && !g.empty()) {
+    std::vector<float> lo(g.begin(), g.begin() + long(g.size() / 2)), hi(g.begin() + long(g.size() / 2), g.end());
+    return fmt::format("continuous {} .. {}", Mask(lo), Mask(hi));
+  }
+  const size_t n = mask_dims ? g.size() / mask_dims : g.size();
+  return fmt::format("{} {} goals {}", kind.empty() ? "?" : kind, n, Mask(g));
+}
+
+size_t MaskedDims(const std::vector<float>& mask) {
+  size_t n = 0;
+  for (float x : mask) n += x != 0;
+  return n;
+}
+
+}  // namespace
+
+std::string ChainProgress(const StatusView& v, int64_t restarts) {
+  if (!v.chain) return fmt::format("chain (no status yet) | restarts {}", restarts);
+  const msg::ChainStatus& c = v.chain->sample;
+  std::string s = "chain " + c.phase();
+  if (c.phase() == "collecting" || c.phase() == "detecting") s += fmt::format(" {} r{}", c.source(), c.round());
+  for (const auto& l : c.links())
+    s += fmt::format(" | {}->{} {:.2f} {:.2f}{}", l.source(), l.target(), l.score(), l.skill_success(),
+                     l.state() == "training" ? "*" : "");
+  if (c.eval_env_steps()) s += fmt::format(" | eval {:.1f}+-{:.1f}", c.eval_return_mean(), c.eval_return_sd());
+  if (v.learner)
+    s += fmt::format(" | lag {:.1f} | {:.0f} upd/s", v.learner->sample.lag_median(), v.learner->sample.updates_per_s());
+  return s + fmt::format(" | epoch {} | restarts {}", c.epoch(), restarts);
+}
+
+MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64_t restarts) {
+  MetricsRow r;
+  r.wall_s = wall_s;
+  r.env_steps = v.total_steps();
+  r.steps_per_s = steps_per_s;
+  r.restarts = restarts;
+  if (v.learner) {
+    r.updates_per_s = v.learner->sample.updates_per_s();
+    r.lag_median = v.learner->sample.lag_median();
+  }
+  if (v.chain) {
+    const msg::ChainStatus& c = v.chain->sample;
+    r.phase = c.phase();
+    r.env_steps = std::max(r.env_steps, c.env_steps());
+    r.eval_env_steps = c.eval_env_steps();
+    r.eval_mean = c.eval_return_mean();
+    r.eval_sd = c.eval_return_sd();
+    r.epoch = c.epoch();
+    for (const auto& l : c.links()) r.links.push_back({l.source() + "->" + l.target(), l.state(), l.skill_success()});
+  }
+  return r;
+}
+
+Result<RunMetrics> RunMetrics::Open(const std::string& dir) {
+  RunMetrics m;
+  m.dir_ = dir;
+  m.csv_.open(fs::path(dir) / "metrics.csv", std::ios::trunc);
+  m.jsonl_.open(fs::path(dir) / "metrics.jsonl", std::ios::trunc);
+  m.eval_.open(fs::path(dir) / "eval.csv", std::ios::trunc);
+  if (!m.csv_ || !m.jsonl_ || !m.eval_) return Errorf("cannot write the metrics files in {}", dir);
+  m.csv_ << "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,eval_env_steps,eval_return_mean,"
+            "eval_return_sd,epoch,restarts";
+  for (int i = 1; i <= kMaxLevels; ++i) m.csv_ << ",success_" << i;
+  m.csv_ << "\n";
+  m.eval_ << "env_steps,eval_return_mean,eval_return_sd\n";
+  return m;
+}
+
+void RunMetrics::Append(const MetricsRow& r) {
+  const bool eval = r.eval_env_steps > 0;
+  csv_ << fmt::format("{:.2f},{},{},{:.1f},{:.2f},{:.3f},", r.wall_s, r.env_steps, r.phase, r.steps_per_s,
+                      r.updates_per_s, r.lag_median);
+  csv_ << (eval ? fmt::format("{},{:.4f},{:.4f}", r.eval_env_steps, r.eval_mean, r.eval_sd) : std::string(",,"));
+  csv_ << fmt::format(",{},{}", r.epoch, r.restarts);
+  for (int i = 0; i < kMaxLevels; ++i)
+    csv_ << "," << (size_t(i) < r.links.size() ? fmt::format("{:.4f}", r.links[size_t(i)].success) : "");
+  csv_ << "\n";
+  json links = json::array();
+  for (size_t i = 0; i < r.links.size(); ++i)
+    links.push_back({{"level", i + 1}, {"link", r.links[i].name}, {"state", r.links[i].state},
+                     {"success", r.links[i].success}});
+  json ev = eval ? json{{"env_steps", r.eval_env_steps}, {"mean", r.eval_mean}, {"sd", r.eval_sd}} : json(nullptr);
+  jsonl_ << json{{"wall_s", r.wall_s}, {"env_steps", r.env_steps}, {"phase", r.phase}, {"steps_per_s", r.steps_per_s},
+                 {"updates_per_s", r.updates_per_s}, {"lag_median", r.lag_median}, {"eval", ev}, {"epoch", r.epoch},
+                 {"restarts", r.restarts}, {"links", links}}.dump()
+         << "\n";
+  if (eval && r.eval_env_steps > last_eval_) {
+    eval_ << fmt::format("{},{:.4f},{:.4f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd);
+    last_eval_ = r.eval_env_steps;
+  }
+  // one row a second: flushed, so a run that is killed keeps its metrics
+  csv_.flush(), jsonl_.flush(), eval_.flush();
+  levels_ = std::max(levels_, std::min(int(r.links.size()), kMaxLevels));
+  for (size_t i = 0; i < r.links.size() && i < size_t(kMaxLevels); ++i) {
+    if (names_.size() <= i) names_.resize(i + 1);
+    names_[i] = r.links[i].name;
+  }
+}
+
+Result<std::vector<std::string>> RunMetrics::Plot() {
+  csv_.flush(), jsonl_.flush(), eval_.flush();
+  std::vector<std::string> files;
+  std::string script = "set datafile separator ','\nset terminal pngcairo size 900,540\nset grid\n"
+                       "set xlabel 'env steps'\nset key bottom right\n";
+  if (levels_ > 0) {
+    const std::string out = (fs::path(dir_) / "skill_success.png").string();
+    script += fmt::format("set output '{}'\nset title 'Skill success (goal-reaching rate, windowed)'\n"
+                          "set ylabel 'success'\nset yrange [0:1.05]\nplot ", out);
+    for (int i = 0; i < levels_; ++i)
+      script += fmt::format("{}'{}' every ::1 using 2:{} with lines lw 2 title 'level {} {}'", i ? ", " : "",
+                            (fs::path(dir_) / "metrics.csv").string(), 12 + i, i + 1, names_[size_t(i)]);
+    script += "\nset yrange [*:*]\n";
+    files.push_back(out);
+  }
+  if (last_eval_ > 0) {
+    const std::string out = (fs::path(dir_) / "eval_return.png").string();
+    script += fmt::format("set output '{}'\nset title 'Task: greedy eval return'\nset ylabel 'return'\n"
+                          "plot '{}' every ::1 using 1:2:3 with yerrorlines lw 2 title 'eval return (mean +- sd)'\n",
+                          out, (fs::path(dir_) / "eval.csv").string());
+    files.push_back(out);
+  }
+  if (files.empty()) return files;
+  const std::string gnuplot = FindInPath("gnuplot");
+  if (gnuplot.empty()) return Errorf("gnuplot not found (Debian package gnuplot-nox): no learning-curve PNGs");
+  const std::string script_path = (fs::path(dir_) / "curves.gp").string();
+  std::ofstream(script_path) << script;
+  auto r = RunBounded({gnuplot, script_path}, (fs::path(dir_) / "logs" / "gnuplot.log").string(), std::chrono::seconds(30));
+  if (!Succeeded(r))
+    return Errorf("gnuplot failed ({}); see {}/logs/gnuplot.log", r.ok() ? "exit status " + std::to_string(*r) : r.status().message(), dir_);
+  return files;
+}
+
+json RunSummary(const StatusView& v, double wall_s, int64_t restarts) {
+  json j = {{"wall_s", wall_s}, {"env_steps", v.total_steps()}, {"restarts", restarts}, {"links", json::array()}};
+  if (!v.chain) return j;
+  const msg::ChainStatus& c = v.chain->sample;
+  j["env_steps"] = std::max(v.total_steps(), c.env_steps());
+  j["phase"] = c.phase();
+  j["message"] = c.message();
+  j["epoch"] = c.epoch();
+  for (const auto& l : c.links())
+    j["links"].push_back({{"source", l.source()}, {"target", l.target()}, {"score", l.score()}, {"mask", l.mask()},
+                          {"goal_kind", l.goal_kind()}, {"goal_set", l.goal_set()}, {"skill_success", l.skill_success()},
+                          {"state", l.state()}, {"accepted_at_steps", l.accepted_at_steps()},
+                          {"learned_at_steps", l.learned_at_steps()}});
+  j["last_scores"] = json::array();
+  for (const auto& s : c.last_scores())
+    j["last_scores"].push_back({{"source", s.source()}, {"target", s.target()}, {"score", s.score()},
+                                {"eligible", s.eligible()}, {"note", s.note()}});
+  if (c.eval_env_steps())
+    j["eval"] = {{"env_steps", c.eval_env_steps()}, {"mean", c.eval_return_mean()}, {"sd", c.eval_return_sd()}};
+  return j;
+}
+
+std::string FormatSummary(const json& s) {
+  std::string out = fmt::format("coins run summary: phase {} after {:.1f} s, {} env steps, {} restarts\n",
+                                s.value("phase", "unknown"), s.value("wall_s", 0.0),
+                                Short(double(s.value("env_steps", uint64_t(0)))), s.value("restarts", int64_t(0)));
+  if (s.contains("message")) out += "  chain: " + s["message"].get<std::string>() + "\n";
+  int level = 0;
+  for (const auto& l : s["links"]) {
+    auto mask = l["mask"].get<std::vector<float>>();
+    out += fmt::format("  level {} {}->{}: Sc_I {:.2f}, accepted at {}, {}, skill success {:.3f}\n", ++level,
+                       l["source"].get<std::string>(), l["target"].get<std::string>(), l["score"].get<double>(),
+                       Short(double(l["accepted_at_steps"].get<uint64_t>())),
+                       l["learned_at_steps"].get<uint64_t>()
+                           ? "learned at " + Short(double(l["learned_at_steps"].get<uint64_t>()))
+                           : std::string("not learned"),
+                       l["skill_success"].get<double>());
+    out += fmt::format("    mask {}; goals {}\n", Mask(mask),
+                       Goals(l["goal_kind"].get<std::string>(), l["goal_set"].get<std::vector<float>>(), MaskedDims(mask)));
+  }
+  if (s.contains("eval"))
+    out += fmt::format("  final eval return: {:.2f} +- {:.2f} (evaluated at {} env steps)\n", s["eval"]["mean"].get<double>(),
+                       s["eval"]["sd"].get<double>(), Short(double(s["eval"]["env_steps"].get<uint64_t>())));
+  else
+    out += "  final eval return: none reported\n";
+  return out;
+}
+
+std::optional<uint64_t> FinalEpoch(const std::string& run_dir) {
+  std::error_code ec;
+  std::optional<uint64_t> newest;
+  for (const auto& e : fs::directory_iterator(fs::path(run_dir) / "chain", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("chain-epoch-", 0) != 0) continue;
+    std::ifstream in(e.path());
+    json j = json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.contains("state") || !j["state"].is_object()) continue;
+    const json& s = j["state"];
+    if (s.value("phase", "") != "done" || !s.contains("epoch") || !s["epoch"].is_number_unsigned()) continue;
+    newest = std::max(newest.value_or(0), s["epoch"].get<uint64_t>());
+  }
+  return newest;
+}
+
+std::string WriteFinalGif(const std::string& coins_path, const std::string& run_dir) {
+  const std::string log = (fs::path(run_dir) / "logs" / "eval.log").string();
+  auto probe = RunBounded({coins_path, "eval", "--help"}, log, std::chrono::seconds(10));
+  if (!Succeeded(probe))
+    return "final GIF skipped: this coins has no `eval` subcommand yet (hook: WriteFinalGif in orchestrator/run_report.cc)";
+  const std::string gif = (fs::path(run_dir) / "final.gif").string();
+  auto r = RunBounded({coins_path, "eval", run_dir, "--episodes", "1", "--gif", gif}, log, std::chrono::seconds(600));
+  if (!Succeeded(r)) return fmt::format("final GIF not written: coins eval failed; see {}", log);
+  return "final policy GIF: " + gif;
+}
+
+}  // namespace coins

@@ -1,0 +1,74 @@
+// What `coins run` shows and writes about the chain: the chain part of the progress line, the
+// metrics rows (RUN_DIR/metrics.csv and metrics.jsonl, one row a second; eval.csv, one row per
+// evaluation), the learning-curve PNGs (gnuplot), the summary (printed and summary.json), and
+// the final GIF through `coins eval` when that subcommand exists.
+#pragma once
+
+#include <cstdint>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "common/status.h"
+#include "orchestrator/status_collector.h"
+
+namespace coins {
+
+// "chain training-skill | Action->Paddle 6.20 0.91* | eval 12.3+-4.1 | lag 1.0 | epoch 3 | restarts 0"
+// (* marks the link in training); "chain (no status yet)" before the orchestrator reports
+std::string ChainProgress(const StatusView& v, int64_t restarts);
+
+struct MetricsRow {
+  double wall_s = 0;
+  uint64_t env_steps = 0;
+  std::string phase;
+  double steps_per_s = 0, updates_per_s = 0, lag_median = 0;
+  uint64_t eval_env_steps = 0;
+  double eval_mean = 0, eval_sd = 0;
+  uint64_t epoch = 0;
+  int64_t restarts = 0;
+  struct Link {
+    std::string name, state;
+    double success = 0;
+  };
+  std::vector<Link> links;             // level i + 1 = links[i]
+};
+MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64_t restarts);
+
+class RunMetrics {
+ public:
+  static constexpr int kMaxLevels = 8;
+  // opens (truncates) dir/metrics.csv, metrics.jsonl and eval.csv
+  static Result<RunMetrics> Open(const std::string& dir);
+  void Append(const MetricsRow& row);
+  // flushes; writes skill_success.png and eval_return.png with gnuplot (bounded: 30 s); returns
+  // the files written, or an error line (gnuplot missing or failing) that does not fail the run
+  Result<std::vector<std::string>> Plot();
+
+ private:
+  std::string dir_;
+  std::ofstream csv_, jsonl_, eval_;
+  uint64_t last_eval_ = 0;
+  int levels_ = 0;
+  std::vector<std::string> names_;     // the newest link name per level
+};
+
+// the summary of a finished run: links (accepted / learned steps, Sc_I, masks, goal sets, skill
+// success), final eval return, wall time, env steps
+nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
+std::string FormatSummary(const nlohmann::json& summary);
+
+// the newest complete epoch cut after the chain was done (its chain-epoch-N.json holds phase
+// done): the learner's checkpoint of that epoch holds the final policy; nullopt when none yet
+std::optional<uint64_t> FinalEpoch(const std::string& run_dir);
+
+// HOOK (final GIF): when `coins eval` exists (the `eval` subcommand of the coins binary at
+// coins_path), runs `coins eval RUN_DIR --gif RUN_DIR/final.gif` (bounded: 10 min) and returns
+// the line to print; otherwise says that the GIF is skipped. One episode (--episodes 1): the
+// final eval return is the learner's, from the run
+std::string WriteFinalGif(const std::string& coins_path, const std::string& run_dir);
+
+}  // namespace coins

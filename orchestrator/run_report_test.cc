@@ -1,0 +1,136 @@
+// What `coins run` writes about the chain: metrics files, learning curves (real gnuplot), the
+// progress line's chain part and the summary, from a scripted StatusView.
+#include "orchestrator/run_report.h"
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace coins {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path Dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("coins-run-report-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d / "logs");
+  return d;
+}
+
+std::vector<std::string> Lines(const fs::path& p) {
+  std::ifstream in(p);
+  std::vector<std::string> out;
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+msg::ChainLink Link(const std::string& s, const std::string& t, double score, double success, const std::string& state) {
+  msg::ChainLink l;
+  l.source(s);
+  l.target(t);
+  l.score(score);
+  l.skill_success(success);
+  l.state(state);
+  l.mask({1, 0, 0});
+  l.goal_kind("continuous");
+  l.goal_set({-1, 1});
+  l.accepted_at_steps(10'000);
+  l.learned_at_steps(state == "learned" ? 40'000 : 0);
+  return l;
+}
+
+StatusView View(uint64_t steps, std::vector<msg::ChainLink> links, uint64_t eval_at, double eval) {
+  StatusView v;
+  msg::ChainStatus c;
+  c.phase(links.size() > 1 ? "training-skill" : "collecting");
+  c.source("Action");
+  c.env_steps(steps);
+  c.links(links);
+  c.eval_env_steps(eval_at);
+  c.eval_return_mean(eval);
+  c.eval_return_sd(2.0);
+  c.epoch(3);
+  c.message("training Paddle->Ball");
+  v.chain = StatusView::Entry<msg::ChainStatus>{c, StatusView::Clock::now()};
+  msg::LearnerStatus l;
+  l.lag_median(1.5);
+  l.updates_per_s(250);
+  v.learner = StatusView::Entry<msg::LearnerStatus>{l, StatusView::Clock::now()};
+  return v;
+}
+
+TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
+  fs::path dir = Dir("metrics");
+  auto m = RunMetrics::Open(dir.string());
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  for (int i = 1; i <= 20; ++i) {
+    std::vector<msg::ChainLink> links = {Link("Action", "Paddle", 6.2, 0.04 * i, i < 10 ? "training" : "learned")};
+    if (i >= 10) links.push_back(Link("Paddle", "Ball", 4.1, 0.03 * (i - 10), "training"));
+    uint64_t steps = uint64_t(i) * 5000;
+    m->Append(MakeRow(View(steps, links, i >= 15 ? steps : 0, 10.0 * i), double(i), 5000.0, 0));
+  }
+  auto lines = Lines(dir / "metrics.csv");
+  ASSERT_EQ(lines.size(), 21u);
+  EXPECT_EQ(lines[0].substr(0, 60), "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,");
+  EXPECT_EQ(lines[20], "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,");
+  EXPECT_EQ(Lines(dir / "eval.csv").size(), 1u + 6u);  // header + evaluations at rows 15..20
+  auto jsonl = Lines(dir / "metrics.jsonl");
+  ASSERT_EQ(jsonl.size(), 20u);
+  auto last = nlohmann::json::parse(jsonl.back());
+  EXPECT_EQ(last["links"][1]["link"], "Paddle->Ball");
+  EXPECT_DOUBLE_EQ(last["eval"]["mean"].get<double>(), 200.0);
+  EXPECT_TRUE(nlohmann::json::parse(jsonl.front())["eval"].is_null());
+  auto plots = m->Plot();
+  ASSERT_TRUE(plots.ok()) << plots.status().message();
+  ASSERT_EQ(plots->size(), 2u);
+  for (const auto& f : *plots) {
+    std::ifstream in(f, std::ios::binary);
+    char magic[4] = {};
+    in.read(magic, 4);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG") << f;
+    EXPECT_GT(fs::file_size(f), 2000u) << f;
+  }
+}
+
+TEST(RunReport, ProgressAndSummaryShowTheChain) {
+  StatusView v = View(123'456, {Link("Action", "Paddle", 6.2, 0.93, "learned"), Link("Paddle", "Ball", 4.1, 0.4, "training")},
+                      120'000, 12.3);
+  EXPECT_EQ(ChainProgress(v, 2),
+            "chain training-skill | Action->Paddle 6.20 0.93 | Paddle->Ball 4.10 0.40* | eval 12.3+-2.0 | lag 1.5 | "
+            "250 upd/s | epoch 3 | restarts 2");
+  EXPECT_EQ(ChainProgress(StatusView{}, 0), "chain (no status yet) | restarts 0");
+  auto summary = RunSummary(v, 61.5, 2);
+  EXPECT_EQ(summary["links"].size(), 2u);
+  EXPECT_EQ(summary["links"][0]["learned_at_steps"], 40'000);
+  std::string text = FormatSummary(summary);
+  EXPECT_NE(text.find("phase training-skill after 61.5 s, 123.5k env steps, 2 restarts"), std::string::npos) << text;
+  EXPECT_NE(text.find("level 1 Action->Paddle: Sc_I 6.20, accepted at 10.0k, learned at 40.0k, skill success 0.930"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("level 2 Paddle->Ball: Sc_I 4.10, accepted at 10.0k, not learned"), std::string::npos) << text;
+  EXPECT_NE(text.find("mask [1 0 0]; goals continuous [-1] .. [1]"), std::string::npos) << text;
+  EXPECT_NE(text.find("final eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
+}
+
+TEST(RunReport, TheFinalEpochIsTheOneCutAfterTheChainWasDone) {
+  fs::path dir = Dir("final-epoch");
+  EXPECT_FALSE(FinalEpoch(dir.string()).has_value());
+  fs::create_directories(dir / "chain");
+  auto write = [&](uint64_t epoch, const std::string& phase) {
+    nlohmann::json j = {{"format", "coins-chain"}, {"state", {{"phase", phase}, {"epoch", epoch}}}};
+    std::ofstream(dir / "chain" / ("chain-epoch-" + std::to_string(epoch) + ".json")) << j.dump();
+  };
+  write(3, "task");
+  EXPECT_FALSE(FinalEpoch(dir.string()).has_value());
+  write(5, "done");
+  write(4, "done");
+  std::ofstream(dir / "chain" / "chain-epoch-9.json") << "{";  // corrupt: ignored
+  EXPECT_EQ(FinalEpoch(dir.string()).value_or(0), 5u);
+}
+
+}  // namespace
+}  // namespace coins

@@ -1,0 +1,16 @@
+#include "orchestrator/system_config.h"
+
+namespace coins {
+
+std::vector<ConfigSection> SystemConfig::Sections(bool with_dds) {
+  std::vector<ConfigSection> s;
+  if (with_dds) s.push_back(ConfigSection::Of("dds", dds));
+  s.push_back(ConfigSection::Of("run", run));
+  s.push_back(ConfigSection::Of("actor", actor));
+  s.push_back(ConfigSection::Of("replay", replay));
+  s.push_back(ConfigSection::Of("learner", learner));
+  s.push_back(ConfigSection::Of("orchestrator", orchestrator));
+  return s;
+}
+
+}  // namespace coins

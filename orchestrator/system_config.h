@@ -1,0 +1,32 @@
+// SystemConfig: every section of a coins config (dds, run, actor, replay, learner, orchestrator)
+// in one struct, as `coins run` and the orchestrator load it.
+#pragma once
+
+#include <vector>
+
+#include "actors/actor_options.h"
+#include "common/config/config.h"
+#include "common/dds/dds_options.h"
+#include "common/run_options.h"
+#include "learner/learner_options.h"
+#include "orchestrator/config_values.h"
+#include "orchestrator/orchestrator_options.h"
+#include "replay/replay_options.h"
+
+namespace coins {
+
+struct SystemConfig {
+  DdsOptions dds;
+  RunOptions run;
+  ActorOptions actor;
+  ReplayOptions replay;
+  LearnerOptions learner;
+  OrchestratorOptions orchestrator;
+
+  // the sections bound to this struct's fields (the struct outlives them)
+  std::vector<ConfigSection> Sections(bool with_dds = true);
+  ConfigLoader Loader() { return ConfigLoader(Sections()); }
+  ConfigValues Values() { return FlattenConfig(Sections()); }
+};
+
+}  // namespace coins

@@ -1,0 +1,186 @@
+// System tests of `coins run` with the chain: a crashed child is restarted (bounded), the
+// restarted orchestrator continues its chain, and `--resume RUN_DIR` starts every process from
+// the newest complete epoch or refuses with one line.
+#include <signal.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "common/checkpoint.h"
+#include "orchestrator/chain_store.h"
+#include "tests/process_harness.h"
+
+namespace coins {
+namespace {
+
+using namespace coins::testing;
+namespace fs = std::filesystem;
+
+std::string Flags(const fs::path& dir, int domain) {
+  return " --dir " + dir.string() + " --set dds.domain=" + std::to_string(domain) +
+         " --set replay.capacity_mb=64 --set actor.status_period_s=0.2 --set replay.status_period_s=0.2";
+}
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// the pid of the run's process of this binary, or -1
+pid_t PidOf(const std::string& binary, const fs::path& run) {
+  auto r = RunCommand("pgrep -f '[" + binary.substr(0, 1) + "]" + binary.substr(1) + ".*" + run.string() + "/config'");
+  return r.code == 0 ? pid_t(std::stol(r.output)) : -1;
+}
+
+nlohmann::json ChainState(const fs::path& run) {
+  auto j = ReadJson(run / "chain" / "chain.json");
+  return j.is_object() && j["state"].is_object() ? j["state"] : nlohmann::json::object();
+}
+
+// writes chain-epoch-N.json as the orchestrator does when epoch N completes
+void MakeEpoch(const fs::path& run, uint64_t epoch) {
+  auto j = ReadJson(run / "chain" / "chain.json");
+  ASSERT_TRUE(j.is_object());
+  j["state"]["epoch"] = epoch;
+  j["state"]["last_cut_epoch"] = epoch;
+  std::ofstream(run / "chain" / ("chain-epoch-" + std::to_string(epoch) + ".json")) << j.dump(1);
+}
+
+TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpent) {
+  auto dir = TempDir("chain-restart");
+  const fs::path run = dir / "run";
+  std::vector<ChildProcess> coins;
+  auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") +
+                                   " run --steps 0 --actors 1 --shards 1 --set run.max_restarts=1" +
+                                   Flags(run, TestDomain(6))}, (dir / "run.log").string());
+  ASSERT_TRUE(child.ok());
+  coins.push_back(std::move(*child));
+  // the chain leaves collecting at the first detect point (10k random steps)
+  ASSERT_TRUE(WaitUntil([&] { return ChainState(run).value("seq", 0) >= 2; }, std::chrono::seconds(60)))
+      << ReadText(dir / "run.log");
+  const pid_t first = PidOf("coins-orchestrator", run);
+  ASSERT_GT(first, 0);
+  ASSERT_EQ(kill(first, SIGKILL), 0);
+  // what the killed orchestrator persisted last: nothing else writes chain.json
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const nlohmann::json at_kill = ChainState(run);
+  ASSERT_TRUE(WaitUntil([&] { return ReadText(dir / "run.log").find("orchestrator restarted") != std::string::npos; },
+                        std::chrono::seconds(20)))
+      << ReadText(dir / "run.log");
+  // the restarted orchestrator continues the persisted chain: the same command seq, then onwards
+  const std::string resumed = "(seq " + std::to_string(at_kill["seq"].get<uint64_t>()) + ", epoch";
+  ASSERT_TRUE(WaitUntil([&] {
+    const std::string log = ReadText(run / "logs" / "orchestrator.log");
+    const size_t at = log.find("continuing the chain from");
+    return at != std::string::npos && log.find(resumed, at) != std::string::npos;
+  }, std::chrono::seconds(20))) << resumed << "\n" << ReadText(run / "logs" / "orchestrator.log");
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  EXPECT_GE(ChainState(run)["seq"].get<uint64_t>(), at_kill["seq"].get<uint64_t>());
+  EXPECT_GE(ChainState(run)["env_steps"].get<uint64_t>(), at_kill["env_steps"].get<uint64_t>());
+  // a second crash spends the last retry: the run stops, naming the child and why
+  pid_t second = -1;
+  ASSERT_TRUE(WaitUntil([&] { return (second = PidOf("coins-orchestrator", run)) > 0 && second != first; },
+                        std::chrono::seconds(10)));
+  ASSERT_EQ(kill(second, SIGKILL), 0);
+  ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40))) << ReadText(dir / "run.log");
+  const std::string out = ReadText(dir / "run.log");
+  EXPECT_EQ(WEXITSTATUS(coins[0].status()), 1) << out;
+  EXPECT_NE(out.find("orchestrator (pid " + std::to_string(first) + ") was killed by signal 9 (Killed); restarting (1/1)"),
+            std::string::npos) << out;
+  EXPECT_NE(out.find("orchestrator (pid " + std::to_string(second) + ") was killed by signal 9 (Killed); restarts "
+                     "exhausted (1/1)"),
+            std::string::npos) << out;
+  EXPECT_NE(out.find("| restarts 1"), std::string::npos) << out;
+  EXPECT_EQ(PidOf("coins-actor", run), -1) << "an actor outlived the run";
+}
+
+// a short finished run to resume from: its config.yaml and chain.json
+fs::path FinishedRun(const std::string& name, int domain) {
+  auto dir = TempDir(name);
+  // the chain stays in collecting (detect point out of reach), so the paced actor runs its steps
+  auto r = RunCommand(Bin("coins") + " run --steps 20000 --actors 1 --shards 1 --quiet" + Flags(dir / "run", domain) +
+                      " --set orchestrator.detect_every_steps=1000000000 --set orchestrator.detect_budget_steps=1000000000");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "run" / "chain" / "chain.json")) << r.output;
+  return dir / "run";
+}
+
+TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
+  const fs::path run = FinishedRun("chain-resume-refused", TestDomain(7));
+  for (uint64_t e : chain::ChainStore::Epochs(run / "chain")) fs::remove(run / "chain" / ("chain-epoch-" + std::to_string(e) + ".json"));
+  auto one_line = [](const CommandResult& r) { return std::count(r.output.begin(), r.output.end(), '\n') == 1; };
+  auto r = RunCommand(Bin("coins") + " run --resume " + run.string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_TRUE(one_line(r)) << r.output;
+  EXPECT_NE(r.output.find("no complete checkpoint epoch in " + (run / "chain").string()), std::string::npos) << r.output;
+
+  MakeEpoch(run, 1);
+  r = RunCommand(Bin("coins") + " run --resume " + run.string() + " --set orchestrator.eps_si=5");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_TRUE(one_line(r)) << r.output;
+  EXPECT_NE(r.output.find("orchestrator.eps_si is 5 here, 3 in " + (run / "config.yaml").string()), std::string::npos)
+      << r.output;
+  std::ofstream(run.parent_path() / "other.yaml") << "orchestrator:\n  detect_every_steps: 5000\n  detect_budget_steps: 1000000000\n";
+  r = RunCommand(Bin("coins") + " run --resume " + run.string() + " --config " + (run.parent_path() / "other.yaml").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_TRUE(one_line(r)) << r.output;
+  EXPECT_NE(r.output.find("orchestrator.detect_every_steps is 5000 here, 1000000000 in"), std::string::npos) << r.output;
+}
+
+// the chain stays in collecting (detect point out of reach) while epochs are cut every 2 s:
+// the shard snapshots and the learner checkpoints, all acknowledged
+TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoch) {
+  auto dir = TempDir("chain-resume");
+  const fs::path run = dir / "run";
+  const std::string chain_flags = " --set orchestrator.detect_every_steps=1000000000 --set "
+                                  "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 "
+                                  "--set orchestrator.checkpoint_timeout_s=2";
+  std::vector<ChildProcess> coins;
+  auto first = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --steps 0 --actors 1 "
+                                   "--shards 1 --quiet" + Flags(run, TestDomain(8)) + chain_flags},
+                                   (dir / "first.log").string());
+  ASSERT_TRUE(first.ok());
+  coins.push_back(std::move(*first));
+  ASSERT_TRUE(WaitUntil([&] { return !chain::ChainStore::Epochs(run / "chain").empty(); }, std::chrono::seconds(90)))
+      << ReadText(run / "logs" / "orchestrator.log");
+  coins[0].Signal(SIGTERM);
+  ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
+  ASSERT_TRUE(coins[0].succeeded()) << ReadText(dir / "first.log");
+  const uint64_t epoch = chain::ChainStore::Epochs(run / "chain").back();
+  std::ofstream(run / "chain" / ("chain-epoch-" + std::to_string(epoch + 5) + ".json")) << "{";  // newest, corrupt
+  const std::string e = std::to_string(epoch);
+
+  auto second = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --resume " +
+                                    run.string() + " --steps 0"}, (dir / "resume.log").string());
+  ASSERT_TRUE(second.ok());
+  coins[0] = std::move(*second);
+  auto logged = [&](const std::string& process, const std::string& text) {
+    return WaitUntil([&] { return ReadText(run / "logs" / (process + ".log")).find(text) != std::string::npos; },
+                     std::chrono::seconds(40));
+  };
+  EXPECT_TRUE(logged("orchestrator", "resuming the chain from epoch " + e)) << ReadText(run / "logs" / "orchestrator.log");
+  EXPECT_TRUE(logged("learner", "resumed from checkpoint epoch " + e)) << ReadText(run / "logs" / "learner.log");
+  // the shard restored the snapshot stamped with the epoch's command id
+  ASSERT_TRUE(logged("replay-0", "resumed ")) << ReadText(run / "logs" / "replay-0.log");
+  const std::string replay_log = ReadText(run / "logs" / "replay-0.log");
+  const size_t from = replay_log.find(" from ", replay_log.find("resumed ")) + 6;
+  const std::string snapshot = replay_log.substr(from, replay_log.find(" in ", from) - from);
+  auto inspect = RunCommand(Bin("coins") + " replay inspect --json " + snapshot);
+  ASSERT_EQ(inspect.code, 0) << snapshot << "\n" << inspect.output;
+  EXPECT_EQ(nlohmann::json::parse(inspect.output)["meta"]["command_id"], CheckpointCommandId(epoch));
+  coins[0].Signal(SIGTERM);
+  ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
+  const std::string out = ReadText(dir / "resume.log");
+  EXPECT_TRUE(coins[0].succeeded()) << out;
+  EXPECT_NE(out.find("resuming epoch " + e), std::string::npos) << out;
+  EXPECT_NE(out.find("skipping epoch " + std::to_string(epoch + 5)), std::string::npos) << out;
+  EXPECT_EQ(out.find("removed the previous run"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace coins

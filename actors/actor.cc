@@ -73,8 +73,8 @@ bool Actor::StartBatch(EnvSlot& slot) {
 }
 
 void Actor::PublishBatch(EnvSlot& slot) {
+  slot.builder.set_seq(seq_);  // stamped at publication, so shards see 0, 1, 2, ... in order
   uint64_t hash = slot.builder.Finish();
-  slot.batch->seq(seq_);
   uint32_t transitions = CountTransitions(*slot.batch);
   if (sink_->Publish(slot.batch)) {
     counters_.batches++;

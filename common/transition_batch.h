@@ -26,7 +26,9 @@ uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t acti
 // calls. Chained calls hash the same only when split at the same places, so sender and
 // receiver hash the same pieces. It detects corruption and double counting, not attacks.
 uint64_t HashBytes(const void* data, size_t n, uint64_t seed = 0xcbf29ce484222325ULL);
-// hash over the batch's sequences, one piece per sequence in IDL order
+// hash of every field of the batch but payload_hash itself: the header (HeaderHash) seeds the
+// chain, then one piece per sequence in IDL order. A changed actor, incarnation, sequence
+// number, env, layout, size or episode counter fails the check like a changed value does.
 uint64_t PayloadHash(const TransitionBatch& b);
 
 // true when none of the n floats is NaN or infinite
@@ -54,6 +56,10 @@ struct BatchHeader {
   uint64_t episode_base = 0;
 };
 
+// the header part of PayloadHash: schema version, the header fields and n_rows (what a store
+// keeps beside the columns, so that it can hash its stored copy the same way)
+uint64_t HeaderHash(uint32_t schema_version, const BatchHeader& h, uint32_t n_rows);
+
 class BatchBuilder {
  public:
   // starts filling `batch` (not owned; its sequences keep their capacity across batches)
@@ -66,6 +72,8 @@ class BatchBuilder {
   bool full() const;
   uint32_t rows() const { return rows_; }
   uint32_t max_rows() const { return max_rows_; }
+  // the sequence number the batch goes out with (stamped by Finish, covered by the hash)
+  void set_seq(uint64_t seq) { h_.seq = seq; }
   // stamps the header and the payload hash; returns the hash
   uint64_t Finish();
 

@@ -144,8 +144,8 @@ void Actor::PublishBatch(EnvSlot& slot, int stream) {
     return;
   }
   st.builder.SetProvenance(command_seq_, versions_);
+  st.builder.set_seq(seq_);  // stamped at publication, so shards see 0, 1, 2, ... in order
   uint64_t hash = st.builder.Finish();
-  st.batch->seq(seq_);
   uint32_t transitions = CountTransitions(*st.batch);
   if (sink_->Publish(st.batch)) {
     counters_.batches++;

@@ -140,24 +140,24 @@ int ActorMain(int argc, char** argv) {
     spdlog::error("{}", node.status().message());
     return 1;
   }
-  auto writer = (*node)->MakeWriter<msg::TransitionBatchPubSubType>(
-      dds::kTransitionTopic, dds::TransitionWriterQos(main.dds()), dds::ShardPartition(shard));
   auto stats_writer = (*node)->MakeWriter<msg::ActorStatsPubSubType>(dds::kActorStatsTopic, dds::StatusWriterQos());
   auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "actor");
-  if (!writer.ok() || !stats_writer.ok() || !heartbeat.ok()) {
-    spdlog::error("cannot open DDS topics: {}{}{}", writer.status().message(), stats_writer.status().message(),
-                  heartbeat.status().message());
-    return 1;
-  }
   // after a stop request the actor stops stepping but still publishes its partial batches;
-  // the sink gives up waiting for the shard only once flush_timeout_s has passed
+  // the sink gives up waiting for the shard only once flush_timeout_s has passed. The sink has
+  // a participant of its own, which it replaces when the stream stalls (actors/batch_sink.h).
   std::optional<std::chrono::steady_clock::time_point> stop_seen;
   auto flush_timeout = std::chrono::duration<double>(options.flush_timeout_s);
-  DdsBatchSink sink(*writer, [&] {
+  auto sink_or = DdsBatchSink::Create(main.dds(), main.name() + ".transitions", shard, [&] {
     if (!StopRequested()) return false;
     if (!stop_seen) stop_seen = std::chrono::steady_clock::now();
     return std::chrono::steady_clock::now() - *stop_seen > flush_timeout;
   });
+  if (!sink_or.ok() || !stats_writer.ok() || !heartbeat.ok()) {
+    spdlog::error("cannot open DDS topics: {}{}{}", sink_or.status().message(), stats_writer.status().message(),
+                  heartbeat.status().message());
+    return 1;
+  }
+  DdsBatchSink& sink = **sink_or;
   auto actor = Actor::Create(run.env, options, static_cast<uint32_t>(id), static_cast<uint64_t>(run.seed), &sink);
   if (!actor.ok()) {
     spdlog::error("{}", actor.status().message());

@@ -7,11 +7,15 @@
 
 #include <atomic>
 #include <chrono>
+#include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "common/dds/node.h"
+#include "idl/status.h"
 #include "idl/transition.h"
 
 namespace coins {
@@ -46,22 +50,69 @@ class MemoryBatchSink final : public BatchSink {
   uint64_t published_ = 0;
 };
 
-// publishes on a DDS writer of the transition topic; waits (bounded, in slices) for a matched
-// reader and for history room, giving up only when `stopping` returns true
+// DdsBatchSink: publishes to replay shard `shard` on a DDS participant of its own, waiting
+// (bounded, in slices) for a matched shard and for history room, giving up only when
+// `stopping` returns true.
+//
+// Recovery from a stalled stream. Fast DDS 2.9 can keep writing into the shared-memory port of
+// a shard that was killed (-9) and restarted, so the restarted shard never receives anything
+// (upstream fix PR 3759 is not in 2.9). The sink calls the stream stalled when a reader is
+// matched, its writes have found the history full (nothing acknowledged) for dds.writer_stall_s,
+// and the shard's ReplayStats meanwhile show no progress: neither batches of this actor stored
+// nor inserts held back by its rate limiter (a shard that is merely full of work is not
+// stalled). It then replaces its participant (fresh transports, a new writer) and resends the
+// batches it retained (the last dds.transition_history ones): the shard drops those it holds as
+// duplicates and stores the rest, so nothing acknowledged to the actor is lost twice.
+// Without any ReplayStats, a stream blocked for 10 x writer_stall_s is replaced as well.
 class DdsBatchSink final : public BatchSink {
  public:
-  DdsBatchSink(dds::Writer<msg::TransitionBatch> writer, std::function<bool()> stopping);
+  // name: the participant's name (e.g. "actor-3.transitions")
+  static Result<std::unique_ptr<DdsBatchSink>> Create(const DdsOptions& dds, std::string name, int64_t shard,
+                                                      std::function<bool()> stopping);
+  ~DdsBatchSink() override;
+
   msg::TransitionBatch* Acquire() override;
   bool Publish(msg::TransitionBatch* batch) override;
   void Release(msg::TransitionBatch* batch) override;
+  // waits for the acknowledgements, recovering a stalled stream on the way
   bool Flush(std::chrono::milliseconds timeout) override;
   uint64_t retries() const override { return retries_; }
+  // times the stream was replaced
+  uint64_t recoveries() const { return recoveries_; }
 
  private:
-  dds::Writer<msg::TransitionBatch> writer_;
+  DdsBatchSink(const DdsOptions& dds, std::string name, int64_t shard, std::function<bool()> stopping);
+  // (re)creates the participant, the writer and the ReplayStats reader
+  Status Open();
+  // waits for a matched shard; false when stopping
+  bool WaitForReader();
+  // keeps a copy of the batch for resending (the newest last)
+  void Retain(const msg::TransitionBatch& b);
+  // writes the retained batches from next_ on; false when stopping cut it short
+  bool Deliver();
+  // called while blocked: true when the stream counts as stalled (see above)
+  bool Stalled();
+  // replaces the participant and rewinds next_ to resend every retained batch
+  bool Recover();
+  void NoteProgress() { blocked_since_.reset(); }
+
+  DdsOptions dds_;
+  std::string name_;
+  int64_t shard_;
   std::function<bool()> stopping_;
+  std::unique_ptr<dds::Node> node_;
+  dds::Writer<msg::TransitionBatch> writer_;
+  dds::Reader<msg::ReplayStats> stats_;
   MemoryBatchSink pool_;
-  uint64_t retries_ = 0;
+  std::deque<std::unique_ptr<msg::TransitionBatch>> retained_;
+  std::vector<std::unique_ptr<msg::TransitionBatch>> spare_;  // retained buffers to reuse
+  size_t next_ = 0;  // index in retained_ of the next batch to write
+  uint64_t retries_ = 0, recoveries_ = 0;
+  // stall detection
+  std::optional<std::chrono::steady_clock::time_point> blocked_since_;
+  int quiet_reports_ = 0;               // ReplayStats since blocked_since_ showing no progress
+  std::pair<uint64_t, uint64_t> last_progress_{~0ull, ~0ull};  // (our batches stored, insert waits)
+  uint32_t actor_id_ = ~0u;
 };
 
 }  // namespace coins

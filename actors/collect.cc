@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -18,7 +19,8 @@ Status CollectOptions::Validate() const {
 
 namespace {
 
-// reads one action per line; every line must hold exactly dim finite floats
+// reads one action per line; every line is blank or holds exactly dim finite numbers (a token
+// that is not one, like "abc", "nan" or "inf", is an error naming the line, never skipped)
 Result<std::vector<float>> ReadActionFile(const std::string& path, int dim) {
   std::ifstream in(path);
   if (!in) return Errorf("--policy: cannot open action file '{}' (or use random|goals)", path);
@@ -30,8 +32,14 @@ Result<std::vector<float>> ReadActionFile(const std::string& path, int dim) {
     std::replace(line.begin(), line.end(), ',', ' ');
     std::istringstream ss(line);
     std::vector<float> row;
-    float v;
-    while (ss >> v) row.push_back(v);
+    std::string token;
+    while (ss >> token) {
+      float v = 0;
+      auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), v);
+      if (ec != std::errc() || end != token.data() + token.size() || !std::isfinite(v))
+        return Errorf("--policy file '{}' line {}: '{}' is not a finite number", path, lineno, token);
+      row.push_back(v);
+    }
     if (row.empty()) continue;
     if (int(row.size()) != dim) {
       return Errorf("--policy file '{}' line {}: expected {} numbers, got {}", path, lineno, dim,

@@ -73,8 +73,18 @@ void ProvenanceBlock(const TransitionBatch& b, uint64_t out[kProvenanceWords]) {
   for (size_t i = 0; i < COINS_MAX_LEVELS; ++i) out[1 + i] = i < b.policy_versions().size() ? b.policy_versions()[i] : 0;
 }
 
+uint64_t HeaderHash(uint32_t schema_version, const BatchHeader& h, uint32_t n_rows) {
+  // fixed-width words, so the piece has no padding and one layout on every machine
+  const uint64_t words[12] = {schema_version, h.actor_id,  h.incarnation, h.seq,        h.env_id,
+                              h.layout_hash,  n_rows,      h.state_dim,   h.action_dim, h.goal_dim,
+                              h.episode_base, 0x5eedba7cULL};
+  return HashBytes(words, sizeof(words));
+}
+
 uint64_t PayloadHash(const TransitionBatch& b) {
-  uint64_t h = HashVec(b.first_state(), 0xcbf29ce484222325ULL);
+  BatchHeader header{b.actor_id(),  b.incarnation(), b.seq(),      b.env_id(),     b.layout_hash(),
+                     b.state_dim(), b.action_dim(),  b.goal_dim(), b.episode_base()};
+  uint64_t h = HashVec(b.first_state(), HeaderHash(b.schema_version(), header, b.n_rows()));
   h = HashVec(b.delta_end(), h);
   h = HashVec(b.delta_index(), h);
   h = HashVec(b.delta_value(), h);

@@ -31,6 +31,9 @@ uint64_t HashBytes(const void* data, size_t n, uint64_t seed = 0xcbf29ce48422232
 inline constexpr size_t kProvenanceWords = 1 + COINS_MAX_LEVELS;
 void ProvenanceBlock(const TransitionBatch& b, uint64_t out[kProvenanceWords]);
 // hash over the batch's sequences, one piece per sequence in IDL order, then the provenance block
+// hash of every field of the batch but payload_hash itself: the header (HeaderHash) seeds the
+// chain, then one piece per sequence in IDL order. A changed actor, incarnation, sequence
+// number, env, layout, size or episode counter fails the check like a changed value does.
 uint64_t PayloadHash(const TransitionBatch& b);
 
 // true when none of the n floats is NaN or infinite
@@ -72,6 +75,10 @@ struct BatchHeader {
   uint64_t policy_versions[COINS_MAX_LEVELS] = {};
 };
 
+// the header part of PayloadHash: schema version, the header fields and n_rows (what a store
+// keeps beside the columns, so that it can hash its stored copy the same way)
+uint64_t HeaderHash(uint32_t schema_version, const BatchHeader& h, uint32_t n_rows);
+
 class BatchBuilder {
  public:
   // starts filling `batch` (not owned; its sequences keep their capacity across batches)
@@ -86,6 +93,8 @@ class BatchBuilder {
   uint32_t max_rows() const { return max_rows_; }
   // the command and the weights versions that produced the rows (stamped by Finish)
   void SetProvenance(uint64_t command_seq, std::span<const uint64_t> policy_versions);
+  // the sequence number the batch goes out with (stamped by Finish, covered by the hash)
+  void set_seq(uint64_t seq) { h_.seq = seq; }
   // stamps the header and the payload hash; returns the hash
   uint64_t Finish();
 

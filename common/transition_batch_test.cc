@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -126,6 +127,44 @@ TEST(TransitionBatch, HashCoversEveryColumn) {
   b = *a;
   std::swap(b.delta_value()[0], b.delta_value()[1]);
   EXPECT_NE(PayloadHash(b), h);
+}
+
+TEST(TransitionBatch, HashCoversEveryHeaderField) {
+  auto a = MakeBatch(8, 3, 1, 2);
+  const uint64_t h = PayloadHash(*a);
+  ASSERT_EQ(h, a->payload_hash());
+  const std::vector<std::function<void(TransitionBatch&)>> changes = {
+      [](TransitionBatch& x) { x.schema_version(x.schema_version() + 1); },
+      [](TransitionBatch& x) { x.actor_id(x.actor_id() + 1); },
+      [](TransitionBatch& x) { x.incarnation(x.incarnation() ^ (uint64_t(1) << 63)); },
+      [](TransitionBatch& x) { x.seq(x.seq() + 1); },
+      [](TransitionBatch& x) { x.env_id(x.env_id() + 1); },
+      [](TransitionBatch& x) { x.layout_hash(x.layout_hash() ^ 1); },
+      [](TransitionBatch& x) { x.n_rows(x.n_rows() - 1); },
+      [](TransitionBatch& x) { x.state_dim(x.state_dim() + 1); },
+      [](TransitionBatch& x) { x.action_dim(x.action_dim() + 1); },
+      [](TransitionBatch& x) { x.goal_dim(x.goal_dim() + 1); },
+      [](TransitionBatch& x) { x.episode_base(x.episode_base() + 1); },
+  };
+  for (size_t i = 0; i < changes.size(); ++i) {
+    TransitionBatch b = *a;
+    changes[i](b);
+    EXPECT_NE(PayloadHash(b), h) << "header field " << i << " is not covered";
+  }
+  // a sequence number changed in transit fails validation
+  TransitionBatch b = *a;
+  b.seq(b.seq() + 1000);
+  EXPECT_NE(ValidateBatch(b).message().find("payload hash mismatch"), std::string::npos);
+  // set_seq stamps the number before the hash is taken
+  auto c = std::make_unique<TransitionBatch>();
+  BatchBuilder builder;
+  builder.Begin(c.get(), {.layout_hash = 1, .state_dim = 1, .action_dim = 1}, 0);
+  float s[1] = {0}, act[1] = {0};
+  builder.AddRow(s, act, {}, 0, msg::ROW_SEGMENT_START, 0, 0);
+  builder.set_seq(42);
+  builder.Finish();
+  EXPECT_EQ(c->seq(), 42u);
+  EXPECT_TRUE(ValidateBatch(*c).ok());
 }
 
 TEST(TransitionBatch, HashBytesSeesEveryWordAndChainsThroughEmptyPieces) {

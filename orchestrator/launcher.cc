@@ -1,5 +1,7 @@
 #include "orchestrator/launcher.h"
 
+#include <signal.h>
+
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -8,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "common/cli_checks.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/run_report.h"
@@ -170,6 +173,73 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
   if (chain_done) std::cout << "  " << WriteFinalGif(SelfDirectory() + "/coins", c.run.dir) << "\n";
 }
 
+// a clean stop, actors first: actors and shards get SIGTERM together; an actor publishes its
+// last batches and waits for their acknowledgements, while its shard keeps storing without rate
+// limiting (so a throttled actor can flush) until its writers are gone, then writes a final
+// snapshot and reports (replay/replay_main.cc). The learner and the orchestrator stop once the
+// actors are gone. Each group's grace covers its own flush before SIGKILL: an actor may wait
+// flush_timeout_s for a shard to take its last batch and again for the acknowledgements; a
+// shard drains for up to stop_drain_s and may write a snapshot.
+void StopRun(std::vector<ChildProcess>& children, const SystemConfig& c) {
+  using namespace std::chrono;
+  auto secs = [](double s) { return duration_cast<milliseconds>(duration<double>(s)); };
+  auto is = [](const ChildProcess& p, const char* prefix) { return p.name().rfind(prefix, 0) == 0; };
+  auto actor = [&](const ChildProcess& p) { return is(p, "actor-"); };
+  auto shard = [&](const ChildProcess& p) { return is(p, "replay-"); };
+  auto other = [&](const ChildProcess& p) { return !actor(p) && !shard(p); };
+  auto signal = [&](auto member) {
+    for (auto& p : children)
+      if (member(p) && !p.Poll()) p.Signal(SIGTERM);
+  };
+  auto wait = [&](auto member, milliseconds grace) {
+    auto end = steady_clock::now() + grace;
+    for (auto& p : children) {
+      if (!member(p)) continue;
+      auto left = duration_cast<milliseconds>(end - steady_clock::now());
+      if (p.WaitFor(std::max(left, milliseconds(0)))) continue;
+      std::cerr << "coins run: " << p.name() << " did not stop within " << grace.count() / 1000.0
+                << " s; killing it\n";
+      p.Signal(SIGKILL);
+      p.WaitFor(seconds(5));
+    }
+  };
+  const double snapshot_s = c.replay.snapshot_dir.empty() ? 0.0 : 10.0 + double(c.replay.capacity_mb) / 50.0;
+  const milliseconds actor_grace = secs(2 * c.actor.flush_timeout_s + 5);
+  const milliseconds shard_grace = secs(c.replay.stop_drain_s + snapshot_s + 10);
+  const auto shards_told = steady_clock::now();
+  signal(actor);
+  signal(shard);
+  wait(actor, actor_grace);
+  signal(other);
+  wait(other, secs(10));
+  wait(shard, std::max(milliseconds(0), shard_grace - duration_cast<milliseconds>(steady_clock::now() - shards_told)) +
+                  secs(5));
+}
+
+// one line per actor: transitions it published and what the shards stored of them
+void PrintFinalCounts(const StatusView& v, int64_t actors) {
+  for (int64_t i = 0; i < actors; ++i) {
+    uint64_t stored = 0;
+    bool seen_by_shard = false;
+    for (const auto& [id, s] : v.shards)
+      for (const auto& a : s.sample.actors())
+        if (a.actor_id() == uint64_t(i)) stored += a.transitions(), seen_by_shard = true;
+    auto it = v.actors.find(uint32_t(i));
+    if (it == v.actors.end()) {
+      std::cout << fmt::format("coins run: actor-{}: no final report; shards stored {} of its transitions\n", i,
+                               seen_by_shard ? std::to_string(stored) : std::string("none"));
+      continue;
+    }
+    const uint64_t published = it->second.sample.transitions_published();
+    std::string verdict = published == stored ? "all stored"
+                          : published > stored
+                              ? fmt::format("{} published but not stored", published - stored)
+                              : fmt::format("{} more stored than published (resumed or restarted)", stored - published);
+    std::cout << fmt::format("coins run: actor-{}: {} transitions published, {} stored ({})\n", i, published, stored,
+                             verdict);
+  }
+}
+
 }  // namespace
 
 void AddRunCommand(CLI::App& app, int* exit_code) {
@@ -179,7 +249,8 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
   run->add_option("--actors", flags->actors, "actor processes (run.actors)")->check(CLI::Range(1, 1024));
   run->add_option("--shards", flags->shards, "replay shard processes (run.shards)")->check(CLI::Range(1, 256));
   run->add_option("--env", flags->env, "environment (run.env), see `coins env list`");
-  run->add_option("--steps", flags->steps, "total env steps, 0 = until Ctrl-C (run.steps)")->check(CLI::NonNegativeNumber);
+  run->add_option("--steps", flags->steps, "total env steps, 0 = until Ctrl-C (run.steps)")
+      ->check(cli::Integer(0, int64_t(1) << 50));
   run->add_option("--dir", flags->dir, "run directory for config and logs (run.dir)");
   run->add_option("--resume", flags->resume,
                   "continue the stopped or crashed run in this directory from its newest complete checkpoint epoch "
@@ -235,12 +306,14 @@ int RunLocal(const RunFlags& flags) {
   if (!failure.empty()) std::cerr << "coins run: " << failure << "; stopping the other processes\n";
   else if (outcome.chain_done) std::cout << "coins run: the chain is done; stopping every process\n";
   else if (StopRequested()) std::cout << "coins run: stopping (interrupted)\n";
-  StopAll(children, std::chrono::seconds(10));
+  StopRun(children, c);
   // the final reports of the last processes may still be on their way
   auto reported = [&] { return (*collector)->Snapshot().actors.size() >= size_t(c.run.actors); };
   for (int i = 0; i < 40 && !reported(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the shards' final stats, sent as they exited
   StatusView view = (*collector)->Snapshot();
   std::cout << progress.Line(view, sup, progress.elapsed()) << "\n";
+  PrintFinalCounts(view, c.run.actors);
   for (const auto& child : children)
     if (!child.succeeded()) std::cout << "  " << child.name() << " " << child.Describe() << "\n";
   ReportRun(view, progress, sup, c, outcome.chain_done);

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "common/cli_checks.h"
 #include "common/process.h"
 #include "orchestrator/status_collector.h"
 
@@ -163,7 +164,7 @@ void AddMonitorCommand(CLI::App& app, int* exit_code) {
   CLI::App* m = app.add_subcommand("monitor", "Show a live table of every coins process in the DDS domain.");
   m->add_option("--config", flags->config, "YAML config file (its dds section is used)")->check(CLI::ExistingFile);
   m->add_option("--domain", flags->domain, "DDS domain id (overrides the config)")->check(CLI::Range(0, 232));
-  m->add_option("--seconds", flags->seconds, "stop after this many seconds (0: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+  m->add_option("--seconds", flags->seconds, "stop after this many seconds (0: until Ctrl-C)")->check(cli::Finite(0, 1e7));
   m->add_flag("--json", flags->json, "print one JSON object of the final view instead of tables");
   m->callback([flags, exit_code] { *exit_code = RunMonitor(*flags); });
 }

@@ -32,6 +32,8 @@ Status Load(SystemConfig& c, const std::string& file, const std::vector<std::str
   for (const auto& s : sets) COINS_RETURN_IF_ERROR(loader.ApplyOverride(s));
   if (c.replay.snapshot_dir.empty()) c.replay.snapshot_dir = (fs::path(c.run.dir) / "replay").string();
   COINS_RETURN_IF_ERROR(loader.Validate());
+  // every shard of the run on this machine
+  COINS_RETURN_IF_ERROR(CheckShardMemory(c.replay, c.run.shards));
   auto env = envs::MakeEnv(c.run.env);
   if (!env.ok()) return env.status().WithContext("run.env");
   if (effective) *effective = loader.Dump();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <new>
 
 namespace coins {
 
@@ -46,12 +47,18 @@ Status ChunkStore::Configure(uint32_t layout_hash, uint32_t state_dim, uint32_t 
   if (arena_bytes_ < 2 * largest)
     return Errorf("replay arena of {} bytes is below two of the largest batches ({} bytes); raise replay.capacity_mb",
                   arena_bytes_, 2 * largest);
-  layout_ = layout_hash;
   // new[] without initialisation: pages are only touched as chunks are written
-  arena_.reset(new uint8_t[arena_bytes_]);
+  arena_.reset(new (std::nothrow) uint8_t[size_t(arena_bytes_)]);
+  if (!arena_) return Errorf("replay arena: cannot allocate {} bytes; lower replay.capacity_mb", arena_bytes_);
   // every chunk holds at least one row, and more than 1 + arena/64 chunks cannot fit
   size_t max_chunks = size_t(std::min<int64_t>(capacity_transitions_ * 2 + 2, arena_bytes_ / 64 + 2));
-  ring_.assign(max_chunks, ChunkInfo{});
+  try {
+    ring_.assign(max_chunks, ChunkInfo{});
+  } catch (const std::bad_alloc&) {
+    arena_.reset();
+    return Errorf("replay store: cannot allocate {} chunk descriptors; lower replay.capacity", max_chunks);
+  }
+  layout_ = layout_hash;
   return Status::Ok();
 }
 
@@ -121,9 +128,13 @@ uint64_t ChunkStore::Insert(const TransitionBatch& b, bool continues) {
   const uint32_t transitions = CountTransitions(b);
   MakeRoom(o.end, n, transitions);
 
-  // copy the columns and hash the stored copy in the order of PayloadHash
+  ChunkInfo c{head_, o.end, n, transitions, d, b.actor_id(), b.env_id(), b.seq()};
+  c.incarnation = b.incarnation();
+  c.episode_base = b.episode_base();
+
+  // copy the columns and hash the stored copy in the order of PayloadHash, header first
   uint8_t* base = arena_.get() + head_;
-  uint64_t h = 0xcbf29ce484222325ULL;
+  uint64_t h = StoredHeaderHash(c);
   auto put = [&](int64_t at, const auto& v) {
     using T = typename std::decay_t<decltype(v)>::value_type;
     std::memcpy(base + at, v.data(), v.size() * sizeof(T));
@@ -143,10 +154,6 @@ uint64_t ChunkStore::Insert(const TransitionBatch& b, bool continues) {
   ProvenanceBlock(b, block);
   std::memcpy(base + o.provenance, block, sizeof(block));
   h = HashBytes(base + o.provenance, sizeof(block), h);
-
-  ChunkInfo c{head_, o.end, n, transitions, d, b.actor_id(), b.env_id(), b.seq()};
-  c.incarnation = b.incarnation();
-  c.episode_base = b.episode_base();
   Append(c, continues);
   return h;
 }
@@ -176,12 +183,17 @@ size_t ChunkStore::ChunkOfRow(uint64_t row) const {
   return lo;
 }
 
+uint64_t ChunkStore::StoredHeaderHash(const ChunkInfo& c) const {
+  BatchHeader h{c.actor_id, c.incarnation, c.seq, c.env_id, layout_, state_dim_, action_dim_, goal_dim_, c.episode_base};
+  return HeaderHash(msg::TRANSITION_BATCH_SCHEMA, h, c.n_rows);
+}
+
 uint64_t ChunkStore::StoredHash(size_t i) const {
   const ChunkInfo& c = chunk(i);
   const Offsets o = Layout(c.n_rows, c.n_deltas);
   const uint8_t* base = arena_.get() + c.offset;
   const uint32_t n = c.n_rows, d = c.n_deltas;
-  uint64_t h = 0xcbf29ce484222325ULL;
+  uint64_t h = StoredHeaderHash(c);
   h = HashBytes(base + o.first_state, size_t(state_dim_) * 4, h);
   h = HashBytes(base + o.delta_end, size_t(n) * 4, h);
   h = HashBytes(base + o.delta_index, size_t(d) * 2, h);

@@ -115,7 +115,8 @@ class ChunkStore {
   void RowDeltas(size_t i, uint32_t r, const uint16_t** index, const float** value, uint32_t* n) const;
   // the chunk's stored bytes (chunk(i).bytes of them)
   const uint8_t* bytes(size_t i) const { return arena_.get() + chunk(i).offset; }
-  // hash of the stored copy, as Insert computed it
+  // hash of the stored copy (header fields kept in ChunkInfo and the layout, then the
+  // columns), as Insert computed it
   uint64_t StoredHash(size_t i) const;
 
  private:
@@ -124,6 +125,8 @@ class ChunkStore {
         provenance, end;
   };
   Offsets Layout(uint32_t n_rows, uint32_t n_deltas) const;
+  // the HeaderHash of a chunk's batch, from what the store keeps
+  uint64_t StoredHeaderHash(const ChunkInfo& c) const;
   // evicts until a chunk of `bytes`, `rows` and `transitions` fits; returns its offset
   int64_t MakeRoom(int64_t bytes, uint32_t rows, uint32_t transitions);
   void Append(ChunkInfo info, bool continues);

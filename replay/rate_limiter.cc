@@ -22,7 +22,7 @@ Status RateLimiter::Check(const RateLimiterConfig& c, int64_t capacity, int64_t 
 }
 
 bool RateLimiter::InsertOk(int64_t m, int64_t size) const {
-  if (closed_) return true;
+  if (closed_ || inserts_released_) return true;
   const double r = config_.samples_per_insert;
   if (r == 0 || size < config_.min_size) return true;
   double diff = r * double(c_.inserted) - double(c_.sampled);
@@ -50,7 +50,8 @@ bool RateLimiter::CanSample(int64_t k, int64_t size) const {
 
 bool RateLimiter::AwaitInsert(int64_t m, int64_t size, std::chrono::milliseconds timeout) {
   std::unique_lock lock(mu_);
-  if (!cv_.wait_for(lock, timeout, [&] { return InsertOk(m, size); }) || closed_) return false;
+  // InsertOk is true once inserts are released: a stopping shard stores what it took
+  if (!cv_.wait_for(lock, timeout, [&] { return InsertOk(m, size); })) return false;
   c_.inserted += uint64_t(m);
   lock.unlock();
   cv_.notify_all();
@@ -78,6 +79,22 @@ void RateLimiter::CancelInsert(int64_t m) {
   {
     std::lock_guard lock(mu_);
     c_.inserted -= std::min<uint64_t>(c_.inserted, uint64_t(m));
+  }
+  cv_.notify_all();
+}
+
+void RateLimiter::AddInserted(int64_t m) {
+  {
+    std::lock_guard lock(mu_);
+    c_.inserted += uint64_t(std::max<int64_t>(m, 0));
+  }
+  cv_.notify_all();
+}
+
+void RateLimiter::ReleaseInserts() {
+  {
+    std::lock_guard lock(mu_);
+    inserts_released_ = true;
   }
   cv_.notify_all();
 }

@@ -10,7 +10,10 @@
 // Check() refuses such a configuration, and min_size > capacity, when they are given.
 //
 // Blocking calls wait on a condition variable for at most their timeout and return false when
-// it passed (never deadlock); Close() releases every waiter. Thread-safe.
+// it passed (never deadlock). A stopping shard first calls ReleaseInserts(): inserts proceed at
+// once from then on (and are counted), so that it stores every batch it has taken from DDS (and
+// acknowledged) and its actors can flush; samples are still served. Close() then releases every
+// waiter and refuses samples; inserts still proceed. Thread-safe.
 #pragma once
 
 #include <chrono>
@@ -42,17 +45,23 @@ class RateLimiter {
   explicit RateLimiter(const RateLimiterConfig& config) : config_(config) {}
 
   // waits until an insert of m transitions may proceed (size: transitions held now), then
-  // counts it; false on timeout or Close() (nothing counted)
+  // counts it; false on timeout (nothing counted). After ReleaseInserts() or Close() it
+  // proceeds at once.
   bool AwaitInsert(int64_t m, int64_t size, std::chrono::milliseconds timeout);
   // waits until a sample of k may proceed, then counts it; false on timeout or Close()
+  // (nothing counted)
   bool AwaitSample(int64_t k, std::function<int64_t()> size, std::chrono::milliseconds timeout);
   // non-blocking forms of the two tests
   bool CanInsert(int64_t m, int64_t size) const;
   bool CanSample(int64_t k, int64_t size) const;
   // takes back a counted insert that was not stored (duplicate or rejected batch)
   void CancelInsert(int64_t m);
+  // counts an insert that did not wait (a held batch stored when a later one confirmed it)
+  void AddInserted(int64_t m);
   // tells waiters that the size changed (an insert happened elsewhere)
   void Notify() { cv_.notify_all(); }
+  // inserts no longer wait (a stop is under way); samples go on as before
+  void ReleaseInserts();
   void Close();
 
   RateLimiterCounters counters() const;
@@ -70,6 +79,7 @@ class RateLimiter {
   std::condition_variable cv_;
   RateLimiterCounters c_;
   bool closed_ = false;
+  bool inserts_released_ = false;
 };
 
 }  // namespace coins

@@ -80,6 +80,44 @@ TEST(RateLimiter, BlockedInserterIsReleasedBySamplesAndByClose) {
   EXPECT_LT(Clock::now() - t1, 1s);
 }
 
+TEST(RateLimiter, ReleasedInsertsProceedWhileSamplesAreStillServed) {
+  RateLimiter l({10, 1.0, 600});
+  ASSERT_TRUE(l.AwaitInsert(600, 0, 0ms));
+  ASSERT_FALSE(l.CanInsert(100, 600));
+  std::atomic<bool> done{false};
+  std::thread inserter([&] { done = l.AwaitInsert(100, 600, 10s); });
+  std::this_thread::sleep_for(30ms);
+  EXPECT_FALSE(done.load());
+  l.ReleaseInserts();
+  inserter.join();
+  EXPECT_TRUE(done.load());
+  EXPECT_TRUE(l.AwaitInsert(5000, 700, 0ms));
+  EXPECT_TRUE(l.AwaitSample(200, [] { return int64_t(5700); }, 0ms));
+  EXPECT_EQ(l.counters().inserted, 5700u);
+  EXPECT_EQ(l.counters().sampled, 200u);
+}
+
+TEST(RateLimiter, AfterCloseInsertsProceedAndSamplesAreRefused) {
+  RateLimiter l({10, 1.0, 600});
+  ASSERT_TRUE(l.AwaitInsert(600, 0, 0ms));
+  ASSERT_FALSE(l.CanInsert(100, 600));  // the ratio holds inserts back
+  // an inserter blocked on the ratio when the shard stops is let through and counted
+  std::atomic<bool> done{false};
+  std::thread inserter([&] { done = l.AwaitInsert(100, 600, 10s); });
+  std::this_thread::sleep_for(30ms);
+  EXPECT_FALSE(done.load());
+  auto t0 = Clock::now();
+  l.Close();
+  inserter.join();
+  EXPECT_TRUE(done.load());
+  EXPECT_LT(Clock::now() - t0, 1s);
+  // later inserts (batches drained from DDS after the stop) do not wait either
+  EXPECT_TRUE(l.AwaitInsert(100, 700, 0ms));
+  EXPECT_EQ(l.counters().inserted, 800u);
+  EXPECT_FALSE(l.AwaitSample(1, [] { return int64_t(800); }, 0ms));
+  EXPECT_EQ(l.counters().sampled, 0u);
+}
+
 TEST(RateLimiter, RestoreClampsCountersIntoANewWindow) {
   RateLimiter l({10, 1.0, 100});
   l.Restore({1'000'000, 0});  // an old run that inserted far ahead

@@ -7,6 +7,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "common/cli_checks.h"
 #include "common/dds/node.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
@@ -138,8 +139,9 @@ void AddReplayCommands(CLI::App& app) {
   snap->add_option("--config", f->config, "YAML config file (its dds and run sections are used)")->check(CLI::ExistingFile);
   snap->add_option("--domain", f->domain, "DDS domain id (overrides the config)")->check(CLI::Range(0, 232));
   snap->add_option("--target", f->target, "'replay' (every shard), 'all', or one shard's name ('replay-0')");
-  snap->add_option("--shards", f->shards, "shards to wait for (default: run.shards, or 1 for one name)")->check(CLI::PositiveNumber);
-  snap->add_option("--timeout", f->timeout, "seconds to wait")->check(CLI::PositiveNumber);
+  snap->add_option("--shards", f->shards, "shards to wait for (default: run.shards, or 1 for one name)")
+      ->check(cli::Integer(1, 256));
+  snap->add_option("--timeout", f->timeout, "seconds to wait")->check(cli::Finite(0, 1e6, true));
   snap->callback([f] { RunSnapshot(*f); });
 }
 

@@ -2,6 +2,7 @@
 // shard-K into the store, waiting for the rate limiter), sampling (SampleRequest -> SampleReply,
 // PriorityUpdate), snapshots (periodic and on Control commands, beside traffic), and the main
 // thread (ReplayStats, heartbeat, Control). Every wait is bounded; threads join before exit.
+#include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <fstream>
@@ -64,12 +65,16 @@ void FillStats(const ReplayService::View& v, double insert_rate, msg::ReplayStat
   }
 }
 
-void WriteStatsJson(const std::string& path, const msg::ReplayStats& s) {
+// the final stats; `v` adds what ReplayStats does not carry (sequence jumps, held batches)
+void WriteStatsJson(const std::string& path, const msg::ReplayStats& s, const ReplayService::View& v) {
   nlohmann::json actors = nlohmann::json::array();
-  for (const auto& a : s.actors())
+  for (const auto& a : s.actors()) {
+    auto it = v.actors.find(a.actor_id());
     actors.push_back({{"actor_id", a.actor_id()}, {"batches", a.batches()}, {"transitions", a.transitions()},
                       {"payload_checksum", a.payload_checksum()}, {"next_seq", a.next_seq()},
-                      {"stored_transitions", a.stored_transitions()}, {"stored_checksum", a.stored_checksum()}});
+                      {"stored_transitions", a.stored_transitions()}, {"stored_checksum", a.stored_checksum()},
+                      {"seq_jumps", it != v.actors.end() ? it->second.seq_jumps : 0}});
+  }
   nlohmann::json j = {{"shard_id", s.shard_id()}, {"size", s.size()}, {"capacity", s.capacity()},
                       {"inserted_transitions", s.inserted_transitions()}, {"inserted_batches", s.inserted_batches()},
                       {"duplicates", s.duplicates()}, {"gaps", s.gaps()}, {"rejected", s.rejected()},
@@ -77,7 +82,7 @@ void WriteStatsJson(const std::string& path, const msg::ReplayStats& s) {
                       {"rate_limited", s.rate_limited()}, {"snapshots_written", s.snapshots_written()},
                       {"snapshot_failures", s.snapshot_failures()},
                       {"restored_transitions", s.restored_transitions()}, {"corrupt_snapshots", s.corrupt_snapshots()},
-                      {"actors", actors}};
+                      {"seq_jumps", v.seq_jumps}, {"held_batches", v.held}, {"actors", actors}};
   std::string tmp = path + ".tmp";
   std::ofstream(tmp) << j.dump() << "\n";
   std::rename(tmp.c_str(), path.c_str());
@@ -184,30 +189,53 @@ int ReplayMain(int argc, char** argv) {
       return 1;
     }
 
-  uint64_t rejected_logged = 0;
+  uint64_t notes_logged = 0;
   SnapshotQueue snapshots;
   Joiner joiner;
+  std::atomic<bool> ingest_done{false};
 
-  // ingest: the rate limiter may hold a batch; the DDS history then backs up to the actors
+  // ingest: the rate limiter may hold a batch; the DDS history then backs up to the actors.
+  // A batch taken from the reader has been acknowledged to its actor, so it is always stored:
+  // a stop releases the limiter, which lets a waiting insert through.
   joiner.threads.emplace_back([&] {
     msg::TransitionBatch scratch;
-    auto take = [&] {
-      return reader->TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) {
-        std::string why;
-        for (;;) {
-          auto r = service.Insert(b, 100ms, &why);
-          if (r == ReplayService::InsertResult::kTimedOut && !StopRequested()) continue;
-          if (r == ReplayService::InsertResult::kRejected && rejected_logged++ < 20) spdlog::warn("rejected: {}", why);
-          break;
-        }
-      });
+    auto last_batch = std::chrono::steady_clock::now();
+    auto store = [&](const msg::TransitionBatch& b, const auto&) {
+      std::string why;
+      auto r = service.Insert(b, 100ms, &why);
+      while (r == ReplayService::InsertResult::kTimedOut) {
+        if (StopRequested()) service.ReleaseInserts();
+        r = service.Insert(b, 100ms, &why);
+      }
+      last_batch = std::chrono::steady_clock::now();
+      if (!why.empty() && notes_logged++ < 50) {
+        if (r == ReplayService::InsertResult::kRejected) spdlog::warn("rejected: {}", why);
+        else spdlog::warn("{}", why);
+      }
     };
+    auto take = [&] { return reader->TakeAll(scratch, store); };
     while (!StopRequested())
       if (reader->Wait(50ms)) take();
-    // store what was already delivered before leaving
-    service.Close();
+    // a clean stop: actors stopped together with the shard publish their last batches and wait
+    // for them to be acknowledged before they leave. Store without rate limiting until no writer
+    // is matched, or none has sent anything for kQuiet (they are done), or stop_drain_s passed;
+    // then unmatch the writers still there, so that nothing is acknowledged after the last take
+    constexpr auto kQuiet = 500ms;
+    service.ReleaseInserts();
+    const auto drain_start = std::chrono::steady_clock::now();
+    const auto drain_end = drain_start + std::chrono::duration<double>(options.stop_drain_s);
+    last_batch = std::max(last_batch, drain_start);
+    while (reader->matched() > 0 && std::chrono::steady_clock::now() < drain_end &&
+           std::chrono::steady_clock::now() - last_batch < kQuiet)
+      if (reader->Wait(20ms)) take();
+    if (int writers = reader->matched(); writers > 0) {
+      spdlog::info("closing the transition stream with {} writer(s) still matched", writers);
+      if (Status st = (*node)->DetachReaders(dds::ShardPartition(id)); !st.ok()) spdlog::warn("{}", st.message());
+      std::this_thread::sleep_for(20ms);
+    }
     while (take() > 0) {
     }
+    ingest_done = true;
   });
 
   // sampling service
@@ -215,7 +243,8 @@ int ReplayMain(int argc, char** argv) {
     msg::SampleRequest req;
     msg::SampleReply reply;
     msg::PriorityUpdate up;
-    while (!StopRequested()) {
+    // samples are served until the stream is closed (a learner may still be running)
+    while (!ingest_done) {
       requests->Wait(20ms);
       requests->TakeAll(req, [&](const msg::SampleRequest& q, const auto&) {
         if (q.shard_id() >= 0 && q.shard_id() != id) return;
@@ -282,15 +311,31 @@ int ReplayMain(int argc, char** argv) {
   }
 
   heartbeat->Publish("stopping");
+  // the ingest thread drains and closes the stream, then the rest stops
+  joiner.threads[0].join();
   service.Close();
-  for (auto& t : joiner.threads) t.join();
-  FillStats(service.Stats(true), 0.0, stats);
+  for (auto& t : joiner.threads)
+    if (t.joinable()) t.join();
+  // a clean stop keeps what was stored: a final snapshot when the shard has a directory
+  if (!options.snapshot_dir.empty() && options.snapshot_on_stop) {
+    auto r = service.Snapshot(0);
+    if (!r.ok()) spdlog::warn("final snapshot failed: {}", r.status().message());
+    else if (!r->path.empty())
+      spdlog::info("final snapshot {}: {} transitions, {} bytes in {:.3f} s", r->path, r->transitions, r->bytes,
+                   r->seconds);
+  }
+  auto final_view = service.Stats(true);
+  FillStats(final_view, 0.0, stats);
   stats_writer->Write(stats);
   stats_writer->WaitAcked(500ms);
-  if (!stats_out.empty()) WriteStatsJson(stats_out, stats);
-  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} rejected, {} samples served",
+  if (!stats_out.empty()) WriteStatsJson(stats_out, stats, final_view);
+  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} sequence jumps ({} held "
+               "unconfirmed), {} rejected, {} samples served",
                stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(),
-               stats.rejected(), stats.samples_served());
+               final_view.seq_jumps, final_view.held, stats.rejected(), stats.samples_served());
+  for (const auto& [actor, a] : final_view.actors)
+    spdlog::info("actor {}: {} transitions in {} batches stored (next seq {})", actor, a.transitions, a.batches,
+                 a.next_seq);
   return 0;
 }
 

@@ -11,6 +11,11 @@
 
 namespace coins {
 
+struct ReplayOptions;
+// an error naming the keys when `shards` shards of these options would not fit in 90% of this
+// machine's physical memory (ShardMemoryBytes each)
+Status CheckShardMemory(const ReplayOptions& o, int64_t shards);
+
 struct ReplayOptions {
   // transitions a shard holds at most
   int64_t capacity = 1'000'000;
@@ -36,6 +41,12 @@ struct ReplayOptions {
   // on resume, a config that differs from the snapshot's: false = the snapshot's wins
   // (reported), true = this config wins (also reported)
   bool prefer_new_config = false;
+  // on a clean stop, how long at most the shard keeps storing batches from transition writers
+  // still matched (actors finishing their flush) before it closes the stream; it closes it
+  // earlier once they are gone or have sent nothing for half a second
+  double stop_drain_s = 10.0;
+  // on a clean stop, write a final snapshot (with snapshot_dir set)
+  bool snapshot_on_stop = true;
 
   void Visit(ConfigVisitor& v) {
     v.Int("capacity", capacity, 1024, int64_t(1) << 34, "transitions per shard");
@@ -51,12 +62,21 @@ struct ReplayOptions {
     v.Float("snapshot_period_s", snapshot_period_s, 0, 1e7, "seconds between snapshots (0: on command only)");
     v.Int("snapshot_keep", snapshot_keep, 1, 1000, "snapshots kept per shard");
     v.Bool("prefer_new_config", prefer_new_config, "on resume, this config wins over the snapshot's");
+    v.Float("stop_drain_s", stop_drain_s, 0, 600, "on stop, seconds to keep storing from writers still matched");
+    v.Bool("snapshot_on_stop", snapshot_on_stop, "on a clean stop, write a final snapshot (with snapshot_dir)");
   }
   RateLimiterConfig rate() const { return {min_size, samples_per_insert, error_buffer}; }
+  // the rate limiter's rules, and the memory one shard of this config needs against the
+  // machine's (CheckShardMemory)
   Status Validate() const {
-    return RateLimiter::Check(rate(), capacity, COINS_BATCH_MAX_ROWS, COINS_SAMPLE_MAX_BATCH)
-        .WithContext("replay");
+    COINS_RETURN_IF_ERROR(RateLimiter::Check(rate(), capacity, COINS_BATCH_MAX_ROWS, COINS_SAMPLE_MAX_BATCH)
+                              .WithContext("replay"));
+    return CheckShardMemory(*this, 1);
   }
 };
+
+// bytes a shard of these options allocates at most: its chunk arena (capacity_mb), the per-row
+// priority and weight trees and the chunk descriptors
+int64_t ShardMemoryBytes(const ReplayOptions& o);
 
 }  // namespace coins

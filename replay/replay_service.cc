@@ -41,7 +41,15 @@ Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, Re
     if (!report->config_changes.empty() && !options.prefer_new_config) ApplySnapshotConfig(image.config, &options);
     COINS_RETURN_IF_ERROR(options.Validate());
   }
-  std::unique_ptr<ReplayService> s(new ReplayService(shard_id, options));
+  // the priority trees are allocated here; a shard too large for the machine is refused by
+  // ReplayOptions::Validate first, and this is the backstop
+  std::unique_ptr<ReplayService> s;
+  try {
+    s.reset(new ReplayService(shard_id, options));
+  } catch (const std::bad_alloc&) {
+    return Errorf("shard {}: cannot allocate its indexes ({} bytes estimated); lower replay.capacity", shard_id,
+                  ShardMemoryBytes(options));
+  }
   if (have) {
     COINS_RETURN_IF_ERROR(RestoreShard(image, &s->shard_, &s->limiter_).WithContext(report->snapshot));
     s->size_ = s->shard_.store().transitions();
@@ -62,16 +70,23 @@ ReplayService::InsertResult ReplayService::Insert(const TransitionBatch& b, std:
   }
   if (!limiter_.AwaitInsert(m, size_.load(), timeout)) return InsertResult::kTimedOut;
   Shard::Outcome o;
+  uint32_t also_stored = 0;
   {
     std::lock_guard lock(mu_);
-    o = shard_.Receive(b, why);
+    o = shard_.Receive(b, why, &also_stored);
     size_ = shard_.store().transitions();
   }
   if (o != Shard::Outcome::kStored) limiter_.CancelInsert(m);
+  // a held batch stored with this one counts as inserted too (it did not wait)
+  if (also_stored) limiter_.AddInserted(also_stored);
   limiter_.Notify();
-  return o == Shard::Outcome::kStored ? InsertResult::kStored
-         : o == Shard::Outcome::kDuplicate ? InsertResult::kDuplicate
-                                           : InsertResult::kRejected;
+  switch (o) {
+    case Shard::Outcome::kStored: return InsertResult::kStored;
+    case Shard::Outcome::kDuplicate: return InsertResult::kDuplicate;
+    case Shard::Outcome::kHeld: return InsertResult::kHeld;
+    case Shard::Outcome::kRejected: break;
+  }
+  return InsertResult::kRejected;
 }
 
 void ReplayService::Sample(const msg::SampleRequest& req, msg::SampleReply* reply, std::chrono::milliseconds max_wait) {
@@ -155,8 +170,17 @@ Result<SnapshotWriteResult> ReplayService::Snapshot(uint64_t command_id) {
 
 ReplayService::View ReplayService::Stats(bool with_stored) const {
   std::lock_guard lock(mu_);
-  View v{shard_.id(), shard_.store().transitions(), shard_.store().capacity(), shard_.counters(),
-         shard_.ledger().duplicates(), shard_.ledger().gaps(), shard_.ledger().actors(), {}, counters_};
+  View v{shard_.id(),
+         shard_.store().transitions(),
+         shard_.store().capacity(),
+         shard_.counters(),
+         shard_.ledger().duplicates(),
+         shard_.ledger().gaps(),
+         shard_.ledger().seq_jumps(),
+         shard_.held(),
+         shard_.ledger().actors(),
+         {},
+         counters_};
   if (with_stored) v.stored = shard_.StoredByActor();
   return v;
 }

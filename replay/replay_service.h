@@ -47,8 +47,9 @@ class ReplayService {
   static Result<std::unique_ptr<ReplayService>> Open(uint32_t shard_id, ReplayOptions options, ResumeReport* report,
                                                      uint64_t resume_command = 0);
 
-  enum class InsertResult { kStored, kDuplicate, kRejected, kTimedOut };
-  // validates, waits for the rate limiter (up to timeout), stores
+  enum class InsertResult { kStored, kDuplicate, kRejected, kHeld, kTimedOut };
+  // validates, waits for the rate limiter (up to timeout), stores. `why` receives the reason
+  // of a rejection or a note worth logging (Shard::Receive), else stays empty.
   InsertResult Insert(const TransitionBatch& batch, std::chrono::milliseconds timeout, std::string* why = nullptr);
   // answers a request into reply (header fields too); waits for the rate limiter up to
   // the request's timeout_ms (capped by max_wait)
@@ -58,7 +59,10 @@ class ReplayService {
   // writes a snapshot now (the caller's thread; traffic goes on); a shard that holds nothing
   // yet writes no file (empty path in the result)
   Result<SnapshotWriteResult> Snapshot(uint64_t command_id);
-  // releases every blocked call (shutdown)
+  // a stop is under way: inserts no longer wait for the rate limiter (what was taken from DDS is
+  // stored, and actors can flush); samples are served as before
+  void ReleaseInserts() { limiter_.ReleaseInserts(); }
+  // the end: releases every blocked call; samples are refused from then on
   void Close() { limiter_.Close(); }
 
   // a consistent copy of what Stats needs
@@ -66,7 +70,8 @@ class ReplayService {
     uint32_t shard_id;
     int64_t size, capacity;
     ShardCounters shard;
-    uint64_t duplicates, gaps;
+    uint64_t duplicates, gaps, seq_jumps;
+    size_t held;  // batches held now (sequence jumps not confirmed)
     std::map<uint32_t, ActorLedger> actors;
     std::map<uint32_t, std::pair<uint64_t, uint64_t>> stored;  // only when asked (O(chunks))
     ServiceCounters service;

@@ -1,6 +1,33 @@
 #include "replay/shard.h"
 
+#include <algorithm>
+#include <cassert>
+
+#include "common/machine.h"
+
 namespace coins {
+
+int64_t ShardMemoryBytes(const ReplayOptions& o) {
+  const double arena = double(o.capacity_mb) * 1024 * 1024;
+  const double rows = std::min(2.0 * double(o.capacity), arena / 15) + 2.0 * COINS_BATCH_MAX_ROWS;
+  // two sum trees of doubles over a power-of-two leaf count (up to 4 nodes a row each) and a
+  // byte a row; chunk descriptors for at most min(2 capacity, arena / 64) chunks
+  const double per_row = 2 * 4 * sizeof(double) + 1;
+  const double chunks = std::min(2.0 * double(o.capacity), arena / 64) + 2;
+  const double total = arena + rows * per_row + chunks * double(sizeof(ChunkInfo));
+  return total >= 9e18 ? int64_t(9e18) : int64_t(total);
+}
+
+Status CheckShardMemory(const ReplayOptions& o, int64_t shards) {
+  const int64_t machine = PhysicalMemoryBytes();
+  if (machine <= 0) return Status::Ok();  // cannot tell: the allocation itself reports
+  const double need = double(ShardMemoryBytes(o)) * double(shards);
+  if (need <= 0.9 * double(machine)) return Status::Ok();
+  return Errorf("replay.capacity_mb {} and replay.capacity {}: {} would need about {}, more than 90% of this "
+                "machine's {} of memory; lower them",
+                o.capacity_mb, o.capacity, shards == 1 ? std::string("a shard") : fmt::format("{} shards", shards),
+                HumanBytes(need), HumanBytes(double(machine)));
+}
 
 Shard::Shard(uint32_t shard_id, const ReplayOptions& options)
     : id_(shard_id),
@@ -18,8 +45,9 @@ Status Shard::Check(const TransitionBatch& batch) const {
   return ValidateBatch(batch, store_.layout_hash(), /*check_hash=*/false);
 }
 
-Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why) {
-  // the payload hash is checked on the stored copy below, so the batch is read once
+Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why, uint32_t* also_stored) {
+  if (also_stored) *also_stored = 0;
+  // the payload hash is checked on the stored copy (Store), so the batch is read once
   Status s = Check(batch);
   if (s.ok() && !store_.configured())
     s = store_.Configure(batch.layout_hash(), batch.state_dim(), batch.action_dim(), batch.goal_dim());
@@ -28,10 +56,64 @@ Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why) {
     if (why) *why = s.message();
     return Outcome::kRejected;
   }
-  // a batch continues its env's stream when no sequence number went missing before it
-  uint64_t gaps = ledger_.gaps();
-  if (!ledger_.Admit(batch.actor_id(), batch.incarnation(), batch.seq())) return Outcome::kDuplicate;
-  bool continues = ledger_.gaps() == gaps;
+  const uint32_t actor = batch.actor_id();
+  // the number expected next (0 for an incarnation not seen before)
+  auto known = ledger_.actors().find(actor);
+  const uint64_t expected =
+      known != ledger_.actors().end() && known->second.incarnation == batch.incarnation() ? known->second.next_seq : 0;
+  bool dropped_held = false;
+  const auto admission = ledger_.Admit(actor, batch.incarnation(), batch.seq(), &dropped_held);
+  if (dropped_held) {
+    // the stream went on without confirming the held jump: it was not genuine
+    auto it = held_.find(actor);
+    if (why && it != held_.end())
+      *why = fmt::format("actor {}: dropped the batch held at seq {}: the stream went on at seq {}", actor,
+                         it->second->seq(), batch.seq());
+    if (it != held_.end()) held_.erase(it);
+    c_.rejected++;
+  }
+  switch (admission) {
+    case IngestLedger::Admission::kDuplicate:
+      return Outcome::kDuplicate;
+    case IngestLedger::Admission::kHold: {
+      // a held batch is checked now (a number damaged in transit must not be held)
+      if (PayloadHash(batch) != batch.payload_hash()) {
+        ledger_.DropHeld(actor);
+        c_.rejected++;
+        if (why) *why = fmt::format("batch from actor {} seq {}: payload hash mismatch", actor, batch.seq());
+        return Outcome::kRejected;
+      }
+      auto& slot = held_[actor];
+      if (!slot) slot = std::make_unique<TransitionBatch>();
+      *slot = batch;
+      if (why)
+        *why = fmt::format("actor {} incarnation {:x}: sequence number jumps to {} (expected {}); held until seq {} "
+                           "confirms it",
+                           actor, batch.incarnation(), batch.seq(), expected, batch.seq() + 1);
+      return Outcome::kHeld;
+    }
+    case IngestLedger::Admission::kConfirm: {
+      auto it = held_.find(actor);
+      assert(it != held_.end() && "the ledger holds a jump only while the shard keeps its batch");
+      std::unique_ptr<TransitionBatch> held = std::move(it->second);
+      held_.erase(it);
+      std::string held_why;
+      const bool held_ok = Store(*held, /*continues=*/false, &held_why) == Outcome::kStored;
+      if (held_ok && also_stored) *also_stored = store_.chunk(store_.chunks() - 1).transitions;
+      Outcome o = Store(batch, /*continues=*/held_ok, why);
+      if (why && o == Outcome::kStored)
+        *why = held_ok ? fmt::format("actor {}: the jump to seq {} is confirmed by seq {} ({} numbers skipped)", actor,
+                                     held->seq(), batch.seq(), held->seq() - expected)
+                       : held_why;
+      return o;
+    }
+    case IngestLedger::Admission::kNext:
+      break;
+  }
+  return Store(batch, /*continues=*/true, why);
+}
+
+Shard::Outcome Shard::Store(const TransitionBatch& batch, bool continues, std::string* why) {
   uint64_t stored_hash = store_.Insert(batch, continues);
   if (stored_hash != batch.payload_hash()) {
     store_.DropLast();

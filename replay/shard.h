@@ -1,10 +1,13 @@
 // Shard: what a replay shard does with each received TransitionBatch, independent of DDS:
 // validate it (malformed batches are rejected and counted, never stored), drop duplicates,
+// hold a batch whose sequence number jumps until the next one confirms it (ingest_ledger.h),
 // store it, keep the per-actor ledger and the per-row priorities. Not thread-safe: the replay
 // service guards a Shard with its lock.
 #pragma once
 
 #include <cstdint>
+#include <map>
+#include <memory>
 #include <string>
 
 #include "replay/chunk_store.h"
@@ -27,9 +30,11 @@ class Shard {
   Shard(const Shard&) = delete;
   Shard& operator=(const Shard&) = delete;
 
-  enum class Outcome { kStored, kDuplicate, kRejected };
-  // handles one batch; on kRejected, `why` (if given) receives the reason
-  Outcome Receive(const TransitionBatch& batch, std::string* why = nullptr);
+  enum class Outcome { kStored, kDuplicate, kRejected, kHeld };
+  // handles one batch. `why` (if given) receives the reason of a rejection, or a note worth a
+  // log line (a held jump, a held batch confirmed or dropped), else stays untouched.
+  // `also_stored` (if given) receives the transitions of a held batch stored before this one.
+  Outcome Receive(const TransitionBatch& batch, std::string* why = nullptr, uint32_t* also_stored = nullptr);
   // the checks of Receive that need no state change: validation against the layout held
   Status Check(const TransitionBatch& batch) const;
 
@@ -43,6 +48,8 @@ class Shard {
   uint64_t inserted_transitions() const { return c_.inserted_transitions; }
   uint64_t inserted_batches() const { return c_.inserted_batches; }
   uint64_t rejected() const { return c_.rejected; }
+  // batches held now (sequence jumps waiting for confirmation)
+  size_t held() const { return held_.size(); }
   const ShardCounters& counters() const { return c_; }
 
   // per-actor transitions held and the sum of their stored-copy hashes, recomputed from the
@@ -55,12 +62,16 @@ class Shard {
   void RestoreCounters(const ShardCounters& c) { c_ = c; }
 
  private:
+  // stores a batch that was admitted; kStored, or kRejected when the stored copy fails its hash
+  Outcome Store(const TransitionBatch& batch, bool continues, std::string* why);
+
   uint32_t id_;
   ChunkStore store_;
   IngestLedger ledger_;
   Priorities prio_;
   LevelIndex levels_;
   ShardCounters c_;
+  std::map<uint32_t, std::unique_ptr<TransitionBatch>> held_;  // by actor
 };
 
 }  // namespace coins

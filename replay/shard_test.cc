@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <memory>
 
 namespace coins {
@@ -20,7 +21,6 @@ std::unique_ptr<TransitionBatch> Batch(uint32_t actor, uint64_t inc, uint64_t se
     builder.AddRow(s, a, {}, 0.5f * r, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, r & 1);
   }
   builder.Finish();
-  b->seq(seq);
   return b;
 }
 
@@ -39,20 +39,110 @@ TEST(Shard, StoresOnceAndKeepsLedger) {
     checksum += b->payload_hash();
     EXPECT_EQ(shard.Receive(*b), Shard::Outcome::kStored);
   }
-  // a repeated batch is a duplicate; a jump is a gap
+  // a repeated batch is a duplicate; a jump is held until the next number confirms it, and
+  // the numbers skipped are gaps
   EXPECT_EQ(shard.Receive(*Batch(7, 99, 3, 10, 3.0f)), Shard::Outcome::kDuplicate);
-  EXPECT_EQ(shard.Receive(*Batch(7, 99, 8, 10, 8.0f)), Shard::Outcome::kStored);
-  checksum += Batch(7, 99, 8, 10, 8.0f)->payload_hash();
+  EXPECT_EQ(shard.Receive(*Batch(7, 99, 8, 10, 8.0f)), Shard::Outcome::kHeld);
+  EXPECT_EQ(shard.store().transitions(), 45);
+  uint32_t also = 0;
+  EXPECT_EQ(shard.Receive(*Batch(7, 99, 9, 10, 9.0f), nullptr, &also), Shard::Outcome::kStored);
+  EXPECT_EQ(also, 9u);
+  checksum += Batch(7, 99, 8, 10, 8.0f)->payload_hash() + Batch(7, 99, 9, 10, 9.0f)->payload_hash();
   const auto& a = shard.ledger().actors().at(7);
-  EXPECT_EQ(a.batches, 6u);
-  EXPECT_EQ(a.transitions, 6u * 9);
+  EXPECT_EQ(a.batches, 7u);
+  EXPECT_EQ(a.transitions, 7u * 9);
   EXPECT_EQ(a.checksum, checksum);
+  EXPECT_EQ(a.next_seq, 10u);
   EXPECT_EQ(shard.ledger().duplicates(), 1u);
   EXPECT_EQ(shard.ledger().gaps(), 3u);  // 5, 6 and 7 never came
-  EXPECT_EQ(shard.store().transitions(), 54);
+  EXPECT_EQ(shard.ledger().seq_jumps(), 1u);
+  EXPECT_EQ(shard.store().transitions(), 63);
+  // stored in sequence order: the held batch first
+  EXPECT_EQ(shard.store().chunk(shard.store().chunks() - 2).seq, 8u);
+  EXPECT_EQ(shard.store().chunk(shard.store().chunks() - 1).seq, 9u);
   // a restarted actor (new incarnation) starts again from 0 without counting duplicates
   EXPECT_EQ(shard.Receive(*Batch(7, 100, 0, 10, 1.0f)), Shard::Outcome::kStored);
   EXPECT_EQ(shard.ledger().duplicates(), 1u);
+}
+
+TEST(Shard, OneBatchFarAheadDoesNotPoisonTheBatchesAfterIt) {
+  Shard shard(0, Small(1 << 20));
+  uint64_t checksum = 0;
+  auto send = [&](uint64_t seq) {
+    auto b = Batch(4, 77, seq, 10, float(seq));
+    auto o = shard.Receive(*b);
+    if (o == Shard::Outcome::kStored) checksum += b->payload_hash();
+    return o;
+  };
+  for (uint64_t seq = 0; seq < 5; ++seq) ASSERT_EQ(send(seq), Shard::Outcome::kStored);
+  // a forged (or buggy) copy numbered far ahead, as seen on main: every later genuine batch
+  // of the actor was counted a duplicate and dropped
+  std::string why;
+  EXPECT_EQ(shard.Receive(*Batch(4, 77, 1'000'000'000, 10, 0.0f), &why), Shard::Outcome::kHeld);
+  EXPECT_NE(why.find("jumps to 1000000000 (expected 5)"), std::string::npos) << why;
+  for (uint64_t seq = 5; seq < 200; ++seq) ASSERT_EQ(send(seq), Shard::Outcome::kStored) << "seq " << seq;
+  const auto& a = shard.ledger().actors().at(4);
+  EXPECT_EQ(a.next_seq, 200u);
+  EXPECT_EQ(a.batches, 200u);
+  EXPECT_EQ(a.transitions, 200u * 9);
+  EXPECT_EQ(a.checksum, checksum);
+  EXPECT_EQ(a.seq_jumps, 1u);
+  EXPECT_EQ(shard.ledger().duplicates(), 0u);
+  EXPECT_EQ(shard.ledger().gaps(), 0u);
+  EXPECT_EQ(shard.rejected(), 1u);  // the held batch, proved wrong by seq 5
+  EXPECT_EQ(shard.held(), 0u);
+  EXPECT_EQ(shard.StoredByActor().at(4), std::make_pair(uint64_t(200 * 9), checksum));
+  // a forged new incarnation numbered 0 takes the ledger over; the genuine stream then looks
+  // like a jump, which its next batch confirms: nothing genuine is lost
+  EXPECT_EQ(shard.Receive(*Batch(4, 12345, 0, 10, 0.0f)), Shard::Outcome::kStored);
+  EXPECT_EQ(send(200), Shard::Outcome::kHeld);
+  EXPECT_EQ(send(201), Shard::Outcome::kStored);
+  EXPECT_EQ(send(202), Shard::Outcome::kStored);
+  EXPECT_EQ(shard.ledger().actors().at(4).next_seq, 203u);
+  EXPECT_EQ(shard.ledger().actors().at(4).incarnation, 77u);
+  EXPECT_EQ(shard.ledger().duplicates(), 0u);
+}
+
+TEST(Shard, ARestartedShardTakesAStreamAlreadyUnderWay) {
+  // a shard without a snapshot meets an actor at seq 5000: held, then confirmed by 5001
+  Shard shard(0, Small(1 << 20));
+  EXPECT_EQ(shard.Receive(*Batch(2, 9, 5000, 10, 0.0f)), Shard::Outcome::kHeld);
+  EXPECT_EQ(shard.Receive(*Batch(2, 9, 5001, 10, 0.0f)), Shard::Outcome::kStored);
+  EXPECT_EQ(shard.Receive(*Batch(2, 9, 5002, 10, 0.0f)), Shard::Outcome::kStored);
+  EXPECT_EQ(shard.ledger().actors().at(2).batches, 3u);
+  EXPECT_EQ(shard.ledger().gaps(), 5000u);
+  // a duplicate of the held batch is dropped, not held again
+  Shard other(0, Small(1 << 20));
+  EXPECT_EQ(other.Receive(*Batch(2, 9, 70, 10, 0.0f)), Shard::Outcome::kHeld);
+  EXPECT_EQ(other.Receive(*Batch(2, 9, 70, 10, 0.0f)), Shard::Outcome::kDuplicate);
+  EXPECT_EQ(other.held(), 1u);
+}
+
+TEST(Shard, AHeaderChangedInTransitFailsTheHash) {
+  Shard shard(0, Small(4096));
+  ASSERT_EQ(shard.Receive(*Batch(1, 1, 0, 10, 0)), Shard::Outcome::kStored);
+  std::string why;
+  auto b = Batch(1, 1, 1, 10, 0);
+  b->seq(1);  // the same value: still intact
+  EXPECT_EQ(shard.Receive(*b), Shard::Outcome::kStored);
+  // each header field changed after the hash was taken: rejected, never stored (nor held)
+  const std::vector<std::function<void(TransitionBatch&)>> changes = {
+      [](TransitionBatch& x) { x.env_id(5); },
+      [](TransitionBatch& x) { x.episode_base(3); },
+      [](TransitionBatch& x) { x.actor_id(2); },
+      [](TransitionBatch& x) { x.seq(1000); },
+      [](TransitionBatch& x) { x.incarnation(8); },
+  };
+  for (size_t i = 0; i < changes.size(); ++i) {
+    auto c = Batch(1, 1, 2 + i, 10, 0);
+    changes[i](*c);
+    why.clear();
+    EXPECT_EQ(shard.Receive(*c, &why), Shard::Outcome::kRejected) << "change " << i;
+    EXPECT_NE(why.find("payload hash mismatch"), std::string::npos) << why;
+  }
+  EXPECT_EQ(shard.held(), 0u);
+  EXPECT_EQ(shard.rejected(), changes.size());
+  EXPECT_EQ(shard.store().chunks(), 2u);
 }
 
 TEST(Shard, RejectsMalformedAndMismatchedBatches) {

@@ -143,13 +143,14 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
             {"rejected", shard.counters().rejected},
             {"duplicates", shard.ledger().duplicates()},
             {"gaps", shard.ledger().gaps()},
+            {"seq_jumps", shard.ledger().seq_jumps()},
             {"rate_inserted", rc.inserted},
             {"rate_sampled", rc.sampled},
             {"max_priority", shard.priorities().max_priority()}};
     for (const auto& [id, a] : shard.ledger().actors())
       ledger.push_back({{"actor_id", id}, {"incarnation", a.incarnation}, {"next_seq", a.next_seq},
                         {"batches", a.batches}, {"transitions", a.transitions}, {"checksum", a.checksum},
-                        {"incarnations", a.incarnations}});
+                        {"incarnations", a.incarnations}, {"seq_jumps", a.seq_jumps}});
   }
 
   fs::path tmp = path;

@@ -1,8 +1,8 @@
 // reading, checking and restoring snapshots (format in snapshot.h)
 #include <algorithm>
+#include <charconv>
 #include <cstring>
 #include <fstream>
-#include <regex>
 #include <set>
 
 #include "replay/snapshot.h"
@@ -146,23 +146,41 @@ Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter
     l.transitions = a.value("transitions", uint64_t(0));
     l.checksum = a.value("checksum", uint64_t(0));
     l.incarnations = a.value("incarnations", uint64_t(1));
+    l.seq_jumps = a.value("seq_jumps", uint64_t(0));
     ledger.Restore(a.value("actor_id", uint32_t(0)), l);
   }
-  ledger.RestoreTotals(m.value("duplicates", uint64_t(0)), m.value("gaps", uint64_t(0)));
+  ledger.RestoreTotals(m.value("duplicates", uint64_t(0)), m.value("gaps", uint64_t(0)),
+                       m.value("seq_jumps", uint64_t(0)));
   shard->RestoreCounters({m.value("inserted_transitions", uint64_t(0)), m.value("inserted_batches", uint64_t(0)),
                           m.value("rejected", uint64_t(0))});
   limiter->Restore({m.value("rate_inserted", uint64_t(0)), m.value("rate_sampled", uint64_t(0))});
   return Status::Ok();
 }
 
+namespace {
+
+// the number of a snapshot file name of the shard; false for other names and for numbers that
+// do not fit 64 bits (a stray file is skipped, never fatal)
+bool SnapshotNumber(const std::string& file, uint32_t shard_id, uint64_t* n) {
+  const std::string prefix = "shard-" + std::to_string(shard_id) + "-", suffix = ".snap";
+  if (file.size() <= prefix.size() + suffix.size() || file.compare(0, prefix.size(), prefix) != 0 ||
+      file.compare(file.size() - suffix.size(), suffix.size(), suffix) != 0)
+    return false;
+  const char* begin = file.data() + prefix.size();
+  const char* end = file.data() + file.size() - suffix.size();
+  if (*begin < '0' || *begin > '9') return false;
+  auto [p, ec] = std::from_chars(begin, end, *n);
+  return ec == std::errc() && p == end;
+}
+
+}  // namespace
+
 std::vector<fs::path> ListSnapshots(const fs::path& dir, uint32_t shard_id) {
   std::vector<std::pair<uint64_t, fs::path>> found;
-  const std::regex re("shard-" + std::to_string(shard_id) + "-([0-9]+)\\.snap");
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::smatch mm;
-    std::string f = e.path().filename().string();
-    if (std::regex_match(f, mm, re)) found.emplace_back(std::stoull(mm[1].str()), e.path());
+    uint64_t n = 0;
+    if (SnapshotNumber(e.path().filename().string(), shard_id, &n)) found.emplace_back(n, e.path());
   }
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   std::vector<fs::path> out;
@@ -171,11 +189,11 @@ std::vector<fs::path> ListSnapshots(const fs::path& dir, uint32_t shard_id) {
 }
 
 fs::path NextSnapshotPath(const fs::path& dir, uint32_t shard_id) {
+  // one above the newest; numbers near the top of the range (stray files) are passed over
   uint64_t next = 0;
-  auto list = ListSnapshots(dir, shard_id);
-  if (!list.empty()) {
-    std::string f = list.front().filename().string();
-    next = std::stoull(f.substr(f.rfind('-') + 1)) + 1;
+  for (const auto& f : ListSnapshots(dir, shard_id)) {
+    uint64_t n = 0;
+    if (SnapshotNumber(f.filename().string(), shard_id, &n) && n < (uint64_t(1) << 62)) next = std::max(next, n + 1);
   }
   return dir / fmt::format("shard-{}-{:08d}.snap", shard_id, next);
 }

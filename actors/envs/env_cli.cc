@@ -1,6 +1,7 @@
 #include "actors/envs/env_cli.h"
 
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -12,6 +13,7 @@
 #include "actors/envs/render.h"
 #include "actors/envs/rollout_format.h"
 #include "actors/envs/rng.h"
+#include "common/cli_checks.h"
 
 namespace coins::envs {
 namespace {
@@ -35,6 +37,7 @@ Status ParseAction(const ActionSpec& a, const std::string& line, std::vector<flo
     auto [p, ec] = std::from_chars(line.data(), line.data() + line.size(), v);
     if (ec != std::errc() || p != line.data() + line.size())
       return Errorf("'{}' is not an integer action", line);
+    if (v < 0 || v >= a.n) return Errorf("action {} is out of range [0, {}]", v, a.n - 1);
     out->push_back(static_cast<float>(v));
     return Status::Ok();
   }
@@ -51,6 +54,8 @@ Status ParseAction(const ActionSpec& a, const std::string& line, std::vector<flo
   }
   if (static_cast<int>(out->size()) != a.dim)
     return Errorf("'{}' has {} values, the action space needs {}", line, out->size(), a.dim);
+  for (float v : *out)
+    if (!std::isfinite(v)) return Errorf("'{}' is not a finite action", line);
   return Status::Ok();
 }
 
@@ -126,6 +131,10 @@ Status RunList(bool json) {
   return Status::Ok();
 }
 
+// the rollout's lines into `out`
+Status WriteRollout(Env& env, const RolloutOptions& o, const std::vector<std::vector<float>>& file_actions, int steps,
+                    FILE* out);
+
 Status RunRollout(const RolloutOptions& o) {
   Result<std::unique_ptr<Env>> made = MakeEnv(o.env);
   if (!made.ok()) return made.status().WithContext("--env");
@@ -145,8 +154,23 @@ Status RunRollout(const RolloutOptions& o) {
   const int steps = file_actions.empty() ? o.steps
                                          : (o.steps > 0 ? std::min<int>(o.steps, file_actions.size())
                                                         : static_cast<int>(file_actions.size()));
-  FilePtr out(std::fopen(o.out.c_str(), "w"), &std::fclose);
-  if (!out) return Errorf("--out {}: cannot open for writing", o.out);
+  // written to a temporary file renamed over --out at the end: a run that fails leaves no
+  // partial file behind (and an older file of that name intact)
+  const std::string tmp = o.out + ".tmp";
+  FilePtr out(std::fopen(tmp.c_str(), "w"), &std::fclose);
+  if (!out) return Errorf("--out {}: cannot open {} for writing", o.out, tmp);
+  Status written = WriteRollout(env, o, file_actions, steps, out.get());
+  if (written.ok() && std::fflush(out.get()) != 0) written = Errorf("--out {}: write failed", o.out);
+  out.reset();
+  if (written.ok() && std::rename(tmp.c_str(), o.out.c_str()) != 0)
+    written = Errorf("--out {}: cannot rename {} to it", o.out, tmp);
+  if (!written.ok()) std::remove(tmp.c_str());
+  return written;
+}
+
+Status WriteRollout(Env& env, const RolloutOptions& o, const std::vector<std::vector<float>>& file_actions, int steps,
+                    FILE* out) {
+  const EnvSpec& spec = env.spec();
 
   std::vector<float> state(spec.state_dim()), next(spec.state_dim()), action;
   Rng policy(o.seed ^ kPolicySalt);
@@ -162,7 +186,7 @@ Status RunRollout(const RolloutOptions& o) {
     // one JSON object per transition
     line.clear();
     AppendRolloutLine(spec, t, episode, state, action, next, r, &line);
-    if (std::fwrite(line.data(), 1, line.size(), out.get()) != line.size())
+    if (std::fwrite(line.data(), 1, line.size(), out) != line.size())
       return Errorf("--out {}: write failed", o.out);
     // next episode after done or truncated
     if (r.done || r.truncated) {
@@ -171,7 +195,6 @@ Status RunRollout(const RolloutOptions& o) {
     }
     std::swap(state, next);
   }
-  if (std::fflush(out.get()) != 0) return Errorf("--out {}: write failed", o.out);
   return Status::Ok();
 }
 
@@ -218,13 +241,8 @@ void AddEnvCommands(CLI::App& app) {
   CLI::App* env = app.add_subcommand("env", "Environments: list them, write rollouts, render pictures");
   env->require_subcommand(1);
   const std::vector<std::string> names = EnvNames();
-  const CLI::Validator seed_check(
-      [](std::string& v) {
-        return !v.empty() && v.size() <= 20 && v.find_first_not_of("0123456789") == std::string::npos
-                   ? std::string()
-                   : "'" + v + "' is not a non-negative integer";
-      },
-      "UINT");
+  // seeds take every 64-bit value and nothing beyond (CLI11 alone clamps 2^64 to 2^64 - 1)
+  const CLI::Validator seed_check = cli::Unsigned();
 
   // list
   auto json = std::make_shared<bool>(false);
@@ -244,7 +262,7 @@ void AddEnvCommands(CLI::App& app) {
                   ->check(CLI::IsMember({"random"}));
   actions->excludes(pol);
   rollout->add_option("--steps", ro->steps, "Number of steps (with --actions: at most this many)")
-      ->check(CLI::PositiveNumber);
+      ->check(cli::Integer(1, std::numeric_limits<int>::max()));
   rollout->add_option("--out", ro->out, "Output file (JSON lines)")->required();
   rollout->callback([ro] { Check(RunRollout(*ro)); });
 
@@ -254,7 +272,7 @@ void AddEnvCommands(CLI::App& app) {
   render->add_option("--env", rd->env, "Env name")->required()->check(CLI::IsMember(names));
   render->add_option("--seed", rd->seed, "Env seed")->required()->check(seed_check);
   render->add_option("--policy", rd->policy, "Action policy")->check(CLI::IsMember({"random"}));
-  render->add_option("--steps", rd->steps, "Number of steps")->check(CLI::NonNegativeNumber);
+  render->add_option("--steps", rd->steps, "Number of steps")->check(cli::Integer(0, 1'000'000));
   render->add_option("--out", rd->out, "Output file, .png or .gif")->required();
   render->add_option("--scale", rd->scale, "Breakout: image pixels per game pixel")->check(CLI::Range(1, 16));
   render->add_option("--width", rd->width, "Pushing: image width (<= 640)")->check(CLI::Range(16, 640));

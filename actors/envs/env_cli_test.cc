@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <iterator>
 #include <fstream>
 #include <string>
 
@@ -19,6 +21,11 @@ namespace {
 
 std::string TempPath(const std::string& name) {
   return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coins_envs_" + name;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 std::vector<nlohmann::json> ReadLines(const std::string& path) {
@@ -121,10 +128,22 @@ TEST(EnvCli, BadActionsFilesNameTheLine) {
   EXPECT_NE(s.message().find("line 2"), std::string::npos) << s.message();
   s = run("breakout", "1\n7\n");
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.message().find("step 1"), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("out of range"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("line 2: action 7 is out of range [0, 3]"), std::string::npos) << s.message();
   s = run("pushing", "0,nan,0\n");
   ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("line 1"), std::string::npos) << s.message();
+  // an action the env refuses only when it gets there (step 2): the rollout fails, and neither
+  // a partial --out file nor its temporary is left behind
+  std::remove(TempPath("bad.jsonl").c_str());
+  s = run("pushing", "0,0,0\n0.5,0,0\n5,0,0\n");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("step 2"), std::string::npos) << s.message();
+  EXPECT_FALSE(std::filesystem::exists(TempPath("bad.jsonl")));
+  EXPECT_FALSE(std::filesystem::exists(TempPath("bad.jsonl") + ".tmp"));
+  // an older file of that name stays as it was
+  std::ofstream(TempPath("bad.jsonl")) << "old\n";
+  ASSERT_FALSE(run("pushing", "0,0,0\n5,0,0\n").ok());
+  EXPECT_EQ(ReadText(TempPath("bad.jsonl")), "old\n");
   std::remove(path.c_str());
   std::remove(TempPath("bad.jsonl").c_str());
 }
@@ -142,6 +161,32 @@ TEST(EnvCli, FlagErrors) {
   EXPECT_THROW(parse({"env", "rollout", "--env", "breakout", "--seed", "1", "--policy", "random", "--steps", "-3",
                       "--out", TempPath("x.jsonl")}),
                CLI::ValidationError);
+  // numbers are read whole and never clamped; the messages are one short line
+  auto message = [&](std::vector<std::string> args) {
+    try {
+      parse(args);
+    } catch (const CLI::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string seed64 = "18446744073709551616";  // 2^64
+  EXPECT_NE(message({"env", "rollout", "--env", "breakout", "--seed", seed64, "--policy", "random", "--steps", "3",
+                     "--out", TempPath("x.jsonl")})
+                .find("--seed: must be an integer in [0, 18446744073709551615], got '18446744073709551616'"),
+            std::string::npos);
+  EXPECT_NE(message({"env", "rollout", "--env", "breakout", "--seed", "1", "--policy", "random", "--steps", seed64,
+                     "--out", TempPath("x.jsonl")})
+                .find("--steps: must be an integer in [1, 2147483647], got '18446744073709551616'"),
+            std::string::npos);
+  const std::string neg = message({"env", "render", "--env", "breakout", "--seed", "1", "--steps", "-1", "--out",
+                                   TempPath("x.png")});
+  EXPECT_NE(neg.find("--steps: must be an integer in [0, 1000000], got '-1'"), std::string::npos) << neg;
+  EXPECT_LT(neg.size(), 100u) << neg;
+  EXPECT_NE(message({"env", "rollout", "--env", "breakout", "--seed", "-1", "--policy", "random", "--steps", "3",
+                     "--out", TempPath("x.jsonl")})
+                .find("--seed"),
+            std::string::npos);
   // a run-time failure (no policy and no actions) exits non-zero through RuntimeError
   EXPECT_THROW(parse({"env", "rollout", "--env", "breakout", "--seed", "1", "--out", TempPath("x.jsonl")}),
                CLI::RuntimeError);

@@ -15,6 +15,7 @@
 
 #include "actors/envs/breakout.h"
 #include "actors/envs/pushing.h"
+#include "common/cli_checks.h"
 #include "common/figures.h"
 
 namespace {
@@ -59,24 +60,35 @@ double RunBare(const coins::envs::PushingEnv& env, long substeps, uint64_t seed)
   return substeps / Seconds(t0, t1);
 }
 
+int Usage(const std::string& error) {
+  std::fprintf(stderr, "coins-bench-env: %s\nusage: coins-bench-env [--json] [--reps N] [--scale F]\n", error.c_str());
+  return 2;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   bool json = false;
   int reps = 5;
   double scale = 1.0;  // --scale 0.1 for a quick run
+  // --scale multiplies the step counts (2M Breakout steps, 3000 pushing steps at 1)
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--json")) json = true;
-    else if (!std::strcmp(argv[i], "--reps") && i + 1 < argc) reps = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--scale") && i + 1 < argc) scale = std::atof(argv[++i]);
-    else {
-      std::fprintf(stderr, "usage: coins-bench-env [--json] [--reps N] [--scale F]\n");
-      return 2;
+    if (!std::strcmp(argv[i], "--json")) {
+      json = true;
+      continue;
     }
-  }
-  if (reps < 1 || !(scale > 0)) {
-    std::fprintf(stderr, "error: --reps must be >= 1 and --scale > 0\n");
-    return 2;
+    const bool has_value = i + 1 < argc;
+    if (!std::strcmp(argv[i], "--reps") && has_value) {
+      auto v = coins::cli::ParseInteger(argv[++i], 1, 1000);
+      if (!v.ok()) return Usage("--reps: " + v.status().message());
+      reps = int(*v);
+    } else if (!std::strcmp(argv[i], "--scale") && has_value) {
+      auto v = coins::cli::ParseFinite(argv[++i], 0, 100, /*min_open=*/true);
+      if (!v.ok()) return Usage("--scale: " + v.status().message());
+      scale = *v;
+    } else {
+      return Usage(std::string("unknown argument '") + argv[i] + "'");
+    }
   }
   coins::Figures figures;
   coins::envs::Rng rng(1);

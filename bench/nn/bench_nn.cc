@@ -17,6 +17,7 @@
 
 #include <Eigen/Dense>
 
+#include "common/cli_checks.h"
 #include "common/figures.h"
 #include "common/nn/adam.h"
 #include "common/nn/mlp.h"
@@ -185,7 +186,12 @@ int main(int argc, char** argv) {
     if (arg == "--json") {
       json = true;
     } else if (arg == "--reps" && i + 1 < argc) {
-      reps = std::max(1, std::atoi(argv[++i]));
+      auto v = coins::cli::ParseInteger(argv[++i], 1, 1000);
+      if (!v.ok()) {
+        std::fprintf(stderr, "coins-bench-nn: --reps: %s\n", v.status().message().c_str());
+        return 2;
+      }
+      reps = int(*v);
     } else if (arg == "--quick") {
       reps = 1;
       min_seconds = 0.05;
@@ -193,7 +199,12 @@ int main(int argc, char** argv) {
     } else if (arg == "--no-paddle") {
       paddle = false;
     } else if (arg == "--seeds" && i + 1 < argc) {
-      seeds = std::max(1, std::atoi(argv[++i]));
+      auto v = coins::cli::ParseInteger(argv[++i], 1, 1000);
+      if (!v.ok()) {
+        std::fprintf(stderr, "coins-bench-nn: --seeds: %s\n", v.status().message().c_str());
+        return 2;
+      }
+      seeds = int(*v);
     } else {
       std::fprintf(stderr, "usage: coins-bench-nn [--json] [--reps N] [--seeds N] [--quick] [--no-paddle]\n");
       return 2;

@@ -25,6 +25,8 @@
 #include "bench/breakout_batches.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/cli_checks.h"
+#include "common/dds/domain_lease.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -45,6 +47,7 @@ struct Args {
   int repeats = 3;
   int64_t snapshot_transitions = 1'000'000;
   bool json = false;
+  int64_t domain = -1;  // -1: a free domain of the lease range
 };
 
 double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
@@ -69,6 +72,7 @@ double InsertRate(const Args& a, const DdsOptions& ddso, StatusCollector& collec
         b.actor_id(actor_base + uint32_t(p));
         b.incarnation(incarnation);
         b.seq(seq);
+        b.payload_hash(PayloadHash(b));  // the hash covers the header too
         while (!w->Write(b) && !stop) {
         }
       }
@@ -136,6 +140,7 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
     while (until_done ? !until_done->load() : Since(t0) < seconds) {
       b = *batches[seq % batches.size()];
       b.seq(seq++);
+      b.payload_hash(PayloadHash(b));  // the hash covers the header too
       s.Insert(b, 1s);
       n += CountTransitions(b);
     }
@@ -190,7 +195,11 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
 int Main(int argc, char** argv) {
   Args a;
   CLI::App app("Replay service figures: inserts, samples, snapshots, resume", "coins-bench-replay");
-  app.add_option("--seconds", a.seconds, "seconds per measurement")->check(CLI::PositiveNumber);
+  app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
+  app.add_option("--domain", a.domain,
+                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
+                 "common/dds/domain_lease.h)")
+      ->check(cli::Integer(0, 232));
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_option("--snapshot-transitions", a.snapshot_transitions, "transitions in the snapshot figures")
       ->check(CLI::Range(int64_t(10000), int64_t(1) << 30));
@@ -201,8 +210,13 @@ int Main(int argc, char** argv) {
   Figures f;
 
   // one shard process on a private domain
+  auto lease = dds::DomainLease::Choose(int(a.domain));
+  if (!lease.ok()) {
+    std::cerr << "coins-bench-replay: " << lease.status().message() << "\n";
+    return 2;
+  }
   DdsOptions dds;
-  dds.domain = 100 + getpid() % 100;
+  dds.domain = lease->domain();
   auto dir = fs::temp_directory_path() / ("coins-bench-replay-" + std::to_string(getpid()));
   fs::create_directories(dir);
   std::vector<ChildProcess> shard;
@@ -283,6 +297,7 @@ int Main(int argc, char** argv) {
     for (uint64_t seq = 0; seq < 4000; ++seq) {
       b = *batches[seq % batches.size()];
       b.seq(seq);
+      b.payload_hash(PayloadHash(b));
       (*s)->Insert(b, 1s);
     }
     msg::SampleReply reply;

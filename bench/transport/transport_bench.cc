@@ -17,6 +17,8 @@
 #include "actors/actor.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/cli_checks.h"
+#include "common/dds/domain_lease.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -30,6 +32,7 @@ struct Args {
   double seconds = 2.0;
   int repeats = 5;
   bool json = false;
+  int64_t domain = -1;  // -1: a free domain of the lease range
   std::string only;  // "standalone" or "transport": measure one kind (for profiling)
 };
 
@@ -54,7 +57,11 @@ int Main(int argc, char** argv) {
   Args a;
   CLI::App app("Actor step rate standalone and publishing to one replay shard over shared memory", "coins-bench-transport");
   app.add_option("--env", a.env, "environment");
-  app.add_option("--seconds", a.seconds, "seconds per measurement")->check(CLI::PositiveNumber);
+  app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
+  app.add_option("--domain", a.domain,
+                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
+                 "common/dds/domain_lease.h)")
+      ->check(cli::Integer(0, 232));
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_flag("--json", a.json, "print one JSON object");
   app.add_option("--only", a.only, "measure only one kind (for profiling)")->check(CLI::IsMember({"standalone", "transport"}));
@@ -62,8 +69,13 @@ int Main(int argc, char** argv) {
   SetupLogging("bench", "warn");
 
   // one replay shard process on a private domain
+  auto lease = dds::DomainLease::Choose(int(a.domain));
+  if (!lease.ok()) {
+    std::cerr << "coins-bench-transport: " << lease.status().message() << "\n";
+    return 2;
+  }
   DdsOptions dds;
-  dds.domain = 100 + getpid() % 100;
+  dds.domain = lease->domain();
   auto dir = std::filesystem::temp_directory_path() / ("coins-bench-transport-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   std::vector<ChildProcess> shard;
@@ -78,21 +90,18 @@ int Main(int argc, char** argv) {
   }
   shard.push_back(std::move(*child));
 
-  auto node = dds::Node::Create(dds, "bench-transport");
-  if (!node.ok()) {
-    std::cerr << node.status().message() << "\n";
-    return 1;
-  }
-  auto writer = (*node)->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
-                                                                    dds::ShardPartition(0));
-  if (!writer.ok()) {
-    std::cerr << writer.status().message() << "\n";
-    return 1;
-  }
   // every wait is bounded: a shard that dies or stops acknowledging ends the benchmark
   bool stop = false;
   auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.seconds * a.repeats * 4 + 60);
-  DdsBatchSink dds_sink(*writer, [&] { return stop || shard[0].Poll() || std::chrono::steady_clock::now() > deadline; });
+  auto sink = DdsBatchSink::Create(dds, "bench-transport", 0, [&] {
+    return stop || shard[0].Poll() || std::chrono::steady_clock::now() > deadline;
+  });
+  if (!sink.ok()) {
+    std::cerr << sink.status().message() << "\n";
+    StopAll(shard, std::chrono::seconds(10));
+    return 1;
+  }
+  DdsBatchSink& dds_sink = **sink;
   MemoryBatchSink memory_sink;
   // warm-up: wait for the match and touch the shard's first pages
   {

@@ -11,6 +11,13 @@
 namespace coins {
 namespace {
 
+// a map key as a name; keys that are lists, maps or null are not names
+bool KeyName(const YAML::Node& key, std::string* name) {
+  if (!key.IsScalar()) return false;
+  *name = key.Scalar();
+  return true;
+}
+
 // a scalar's text for error messages
 std::string Show(const YAML::Node& node) {
   if (node.IsScalar()) return "'" + node.Scalar() + "'";
@@ -102,7 +109,9 @@ class YamlReader final : public ConfigVisitor {
   Status Finish() {
     if (!status_.ok()) return status_;
     for (const auto& kv : map_) {
-      std::string key = kv.first.as<std::string>();
+      std::string key;
+      if (!KeyName(kv.first, &key))
+        return Errorf("{}: section '{}' has a key that is {}, not a name", origin_, where_, Show(kv.first));
       if (!used_.count(key)) {
         std::string hint = ClosestMatch(key, fields_);
         return Errorf("{}: unknown key '{}.{}'{}", origin_, where_, key,
@@ -224,11 +233,23 @@ Status ConfigLoader::LoadText(const std::string& text, const std::string& origin
 }
 
 Status ConfigLoader::LoadNode(const YAML::Node& root, const std::string& origin) {
+  // yaml-cpp throws on conversions it cannot make; every one is checked below, and this is the
+  // backstop that turns anything missed into a one-line error instead of an abort
+  try {
+    return LoadSections(root, origin);
+  } catch (const YAML::Exception& e) {
+    return Errorf("{}: cannot read the YAML at line {}: {}", origin, e.mark.line + 1, e.msg);
+  }
+}
+
+Status ConfigLoader::LoadSections(const YAML::Node& root, const std::string& origin) {
   if (root.IsNull()) return Status::Ok();  // an empty file changes nothing
   if (!root.IsMap()) return Errorf("{}: expected a map of sections at the top level", origin);
   const auto& known = KnownConfigSections();
   for (const auto& kv : root) {
-    std::string name = kv.first.as<std::string>();
+    std::string name;
+    if (!KeyName(kv.first, &name))
+      return Errorf("{}: a top-level key is {}, not a section name", origin, Show(kv.first));
     ConfigSection* section = Find(name);
     if (!section) {
       if (std::find(known.begin(), known.end(), name) != known.end()) continue;  // another process's

@@ -77,6 +77,7 @@ class ConfigLoader {
 
  private:
   Status LoadNode(const YAML::Node& root, const std::string& origin);
+  Status LoadSections(const YAML::Node& root, const std::string& origin);
   ConfigSection* Find(std::string_view name);
   std::vector<ConfigSection> sections_;
 };

@@ -51,6 +51,34 @@ TEST_F(Fixture, UnknownKeyNamesKeyAndSuggests) {
   EXPECT_EQ(opts.capacity, 100);
 }
 
+TEST_F(Fixture, KeysThatAreNotNamesAreOneLineErrors) {
+  // a list, a map or null as a key, at the top level or in a section (yaml-cpp threw, and every
+  // binary aborted)
+  const std::pair<const char*, const char*> cases[] = {
+      {"[1]: 2\n", "a top-level key is a list, not a section name"},
+      {"{a: 1}: 2\n", "a top-level key is a map, not a section name"},
+      {"replay:\n  [1]: 2\n", "section 'replay' has a key that is a list, not a name"},
+      {"replay:\n  ? {x: 1}\n  : 3\n", "section 'replay' has a key that is a map, not a name"},
+      {"replay:\n  ~: 3\n", "section 'replay' has a key that is nothing, not a name"},
+      {"learner:\n  [1]: 2\n", ""},  // another process's section: not read here
+  };
+  for (const auto& [text, expected] : cases) {
+    Status s = loader.LoadText(text, "config k.yaml");
+    if (*expected == '\0') {
+      EXPECT_TRUE(s.ok()) << text << s.message();
+      continue;
+    }
+    ASSERT_FALSE(s.ok()) << text;
+    EXPECT_NE(s.message().find(expected), std::string::npos) << text << " -> " << s.message();
+    EXPECT_EQ(s.message().find('\n'), std::string::npos) << s.message();
+    EXPECT_EQ(s.message().rfind("config k.yaml: ", 0), 0u) << s.message();
+  }
+  // and through an override
+  Status s = loader.ApplyOverride("replay.capacity={[1]: 2}");
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("replay.capacity: expected an integer, got a map"), std::string::npos) << s.message();
+}
+
 TEST_F(Fixture, UnknownSectionIsAnErrorButOtherProcessSectionsAreAllowed) {
   EXPECT_TRUE(loader.LoadText("learner:\n  anything: 1\n", "t").ok());
   Status s = loader.LoadText("replai:\n  capacity: 1\n", "t");

@@ -24,6 +24,9 @@ struct DdsOptions {
   int64_t transition_history = 256;
   // seconds without discovery traffic after which a participant counts as gone
   double lease_s = 4.0;
+  // seconds a transition writer may find its history full while its shard reports no progress
+  // before the actor replaces the writer (actors/batch_sink.h)
+  double writer_stall_s = 3.0;
 
   void Visit(ConfigVisitor& v) {
     v.Int("domain", domain, 0, 232, "DDS domain id");
@@ -32,6 +35,7 @@ struct DdsOptions {
     v.Int("shm_segment_mb", shm_segment_mb, 1, 1024, "shared-memory segment size (MiB)");
     v.Int("transition_history", transition_history, 2, 4096, "transition writer history (batches)");
     v.Float("lease_s", lease_s, 0.5, 600, "participant lease duration (s)");
+    v.Float("writer_stall_s", writer_stall_s, 0.5, 3600, "stalled transition writer replaced after (s)");
   }
   Status Validate() const {
     if (discovery == "server" && discovery_server.find(':') == std::string::npos)

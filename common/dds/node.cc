@@ -108,4 +108,17 @@ Result<DataReader*> Node::CreateReader(const std::string& topic, TypeSupport typ
   return r;
 }
 
+Status Node::DetachReaders(const std::string& partition) {
+  auto it = subscribers_.find(partition);
+  if (it == subscribers_.end() || !it->second) return Errorf("dds: no readers on partition '{}'", partition);
+  SubscriberQos sq;
+  it->second->get_qos(sq);
+  sq.partition().clear();
+  std::string detached = partition + ".detached." + std::to_string(reinterpret_cast<uintptr_t>(this));
+  sq.partition().push_back(detached.c_str());
+  if (it->second->set_qos(sq) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK)
+    return Errorf("dds: cannot move the readers of partition '{}' away", partition);
+  return Status::Ok();
+}
+
 }  // namespace coins::dds

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,24 @@ namespace fdds = eprosima::fastdds::dds;
 eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d);
 // the partition name of replay shard k
 std::string ShardPartition(int64_t shard);
+
+// A generated TopicDataType whose getKey may be called from several threads at once. The
+// generated getKey of a keyed type writes into buffers the type object owns (m_keyBuffer,
+// m_md5), and a participant uses one registered type object for every writer and reader of a
+// topic: a process that writes and reads a keyed topic (heartbeats in the orchestrator) then
+// computes keys on its own thread and on the DDS receive thread into the same buffer (found by
+// ThreadSanitizer). Node registers every type through this wrapper.
+template <typename PubSubType>
+class KeySafeType final : public PubSubType {
+ public:
+  bool getKey(void* data, eprosima::fastrtps::rtps::InstanceHandle_t* handle, bool force_md5) override {
+    std::lock_guard<std::mutex> lock(key_mu_);
+    return PubSubType::getKey(data, handle, force_md5);
+  }
+
+ private:
+  std::mutex key_mu_;
+};
 
 template <typename T>
 class Writer {
@@ -82,6 +101,12 @@ class Reader {
     return n;
   }
   fdds::DataReader* raw() const { return r_; }
+  // number of writers currently matched
+  int matched() const {
+    fdds::SubscriptionMatchedStatus s;
+    r_->get_subscription_matched_status(s);
+    return s.current_count;
+  }
 
  private:
   fdds::DataReader* r_;
@@ -99,7 +124,7 @@ class Node {
   Result<Writer<typename PubSubType::type>> MakeWriter(const std::string& topic,
                                                        const fdds::DataWriterQos& qos,
                                                        const std::string& partition = "") {
-    auto w = CreateWriter(topic, fdds::TypeSupport(new PubSubType()), qos, partition);
+    auto w = CreateWriter(topic, fdds::TypeSupport(new KeySafeType<PubSubType>()), qos, partition);
     if (!w.ok()) return w.status();
     return Writer<typename PubSubType::type>(*w);
   }
@@ -107,10 +132,15 @@ class Node {
   Result<Reader<typename PubSubType::type>> MakeReader(const std::string& topic,
                                                        const fdds::DataReaderQos& qos,
                                                        const std::string& partition = "") {
-    auto r = CreateReader(topic, fdds::TypeSupport(new PubSubType()), qos, partition);
+    auto r = CreateReader(topic, fdds::TypeSupport(new KeySafeType<PubSubType>()), qos, partition);
     if (!r.ok()) return r.status();
     return Reader<typename PubSubType::type>(*r);
   }
+
+  // moves the readers of `partition` to a partition of their own, so that they unmatch every
+  // writer: nothing more is received (or acknowledged), while samples already received stay
+  // readable. A stopping shard does this before its last take.
+  Status DetachReaders(const std::string& partition);
 
   fdds::DomainParticipant* participant() const { return participant_; }
   const DdsOptions& options() const { return options_; }

@@ -3,10 +3,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 
 #include <fmt/format.h>
 #include <memory>
 
+#include "common/cli_checks.h"
 #include "learner/detect/detect_run.h"
 
 namespace coins::detector {
@@ -38,10 +40,12 @@ CLI::Validator NumberAtLeast(double min, bool strict, bool integer) {
       },
       strict ? "POSITIVE" : "NONNEGATIVE");
 }
-const CLI::Validator kPositiveInt = NumberAtLeast(0, true, true);
-const CLI::Validator kNonNegativeInt = NumberAtLeast(0, false, true);
 const CLI::Validator kPositive = NumberAtLeast(0, true, false);
 const CLI::Validator kNonNegative = NumberAtLeast(0, false, false);
+
+// steps of data: int-indexed downstream; memory bounds them further (RunDetect)
+constexpr int64_t kMaxSteps = std::numeric_limits<int32_t>::max();
+constexpr int64_t kMaxTrainSteps = 100'000'000;
 
 void Fail(const Status& st) {
   std::fprintf(stderr, "error: %s\n", st.message().c_str());
@@ -89,43 +93,49 @@ void AddDetectCommand(CLI::App& app) {
                   "data policy: random, goals (scripted paddle/gripper to random targets) or a "
                   "file with one action per line")
       ->capture_default_str();
-  cmd->add_option("--steps", c->req.steps, "environment steps of data")->required()->check(kPositiveInt);
-  cmd->add_option("--seed", c->req.seed, "seed of data and models")->capture_default_str();
+  cmd->add_option("--steps", c->req.steps, "environment steps of data (memory bounds it too)")
+      ->required()
+      ->check(cli::Integer(1, kMaxSteps));
+  cmd->add_option("--seed", c->req.seed, "seed of data and models")->capture_default_str()->check(cli::Unsigned());
   cmd->add_option("--targets", c->req.targets, "targets (default: every uncontrolled factor)")->delimiter(',');
   cmd->add_flag("--json", c->json, "print one JSON object");
   cmd->add_flag("--eval", c->req.eval, "false positives/negatives against the simulator's labels on fresh data");
-  cmd->add_option("--eval-steps", c->req.eval_steps, "steps of evaluation data (default: --steps)")->check(kNonNegativeInt);
+  cmd->add_option("--eval-steps", c->req.eval_steps, "steps of evaluation data (default: --steps)")
+      ->check(cli::Integer(0, kMaxSteps));
   cmd->add_option("--holdout", c->req.holdout,
                   "fraction of the data held out of training and scored (0: score the training data)")
-      ->capture_default_str()->check(CLI::Range(0.0, 0.99));
+      ->capture_default_str()->check(cli::Finite(0.0, 0.99));
   cmd->add_flag("--granger", c->req.granger, "also run the linear Granger F-test on the same data");
   cmd->add_option("--screen", c->req.screen_alpha,
                   "linear Granger screen: skip targets with p-value >= this (0: off)")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Finite(0.0, 1.0));
   cmd->add_option("--granger-window", c->req.granger_window, "history window w of the linear test")
-      ->capture_default_str()->check(kPositiveInt);
+      ->capture_default_str()->check(cli::Integer(1, 1000));
   cmd->add_option("--passive-steps", c->req.options.passive_steps, "Adam steps of the passive model")
-      ->capture_default_str()->check(kPositiveInt);
+      ->capture_default_str()->check(cli::Integer(1, kMaxTrainSteps));
   cmd->add_option("--passive-hard-steps", c->req.options.passive_hard_steps,
                   "passive steps after the active model's warm start")
-      ->capture_default_str()->check(kNonNegativeInt);
+      ->capture_default_str()->check(cli::Integer(0, kMaxTrainSteps));
   cmd->add_option("--passive-hard-lambda", c->req.options.passive_hard_lambda,
                   "up-weight of the passive model's own misses in its second phase")
       ->capture_default_str()->check(kNonNegative);
   cmd->add_option("--counterfactual-draws", c->req.options.counterfactual_draws,
                   "draws of another transition's source in the counterfactual check (0: off)")
-      ->capture_default_str()->check(kNonNegativeInt);
+      ->capture_default_str()->check(cli::Integer(0, 1000));
   cmd->add_option("--active-steps", c->req.options.active_steps, "Adam steps of the active model")
-      ->capture_default_str()->check(kPositiveInt);
-  cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128")
-      ->delimiter(',')->check(kPositiveInt);
+      ->capture_default_str()->check(cli::Integer(1, kMaxTrainSteps));
+  // a wider layer is far beyond what trains here: 8192 x 8192 is already 64 M weights a layer
+  cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128 (each at most 8192)")
+      ->delimiter(',')->check(cli::Integer(1, 8192));
   cmd->add_flag("--paper-sizes", c->paper_sizes, "the paper's network sizes for the pairs it names (else --hidden or 128,128)");
   cmd->add_option("--lr", c->req.options.lr, "Adam learning rate")->capture_default_str()->check(kPositive);
   cmd->add_option("--lambda", c->req.options.lambda, "active up-weight of passive-error states")
       ->capture_default_str()->check(kNonNegative);
-  cmd->add_option("--eps-act", c->req.options.eps_act, "active log-likelihood threshold")->capture_default_str();
-  cmd->add_option("--eps-pas", c->req.options.eps_pas, "passive log-likelihood threshold")->capture_default_str();
-  cmd->add_option("--eps-si", c->eps_si, "pass threshold on Sc_I (default 3)");
+  cmd->add_option("--eps-act", c->req.options.eps_act, "active log-likelihood threshold")
+      ->capture_default_str()->check(cli::Finite(-1e9, 1e9));
+  cmd->add_option("--eps-pas", c->req.options.eps_pas, "passive log-likelihood threshold")
+      ->capture_default_str()->check(cli::Finite(-1e9, 1e9));
+  cmd->add_option("--eps-si", c->eps_si, "pass threshold on Sc_I (default 3)")->check(cli::Finite(0, 1e9));
   cmd->add_option("--close", c->close, "proximity L1 distance (default: 7 Breakout, 0.13 pushing; 0 turns it off)")
       ->check(kNonNegative);
   cmd->add_flag("--no-proximity-gate", c->no_gate, "do not require proximity in the interaction test");

@@ -8,6 +8,7 @@
 
 #include "actors/collect.h"
 #include "actors/envs/env.h"
+#include "common/machine.h"
 #include "detector/granger.h"
 #include "detector/interaction.h"
 #include "detector/transitions.h"
@@ -22,6 +23,21 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 // a double that JSON can hold (NaN and inf become null)
 nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+// the data sets (training and evaluation) must fit in memory with room to train: each step is
+// held about three times (collected, its training/scoring slices, a model's pair data)
+Status CheckDataFits(const DetectRequest& req, const envs::EnvSpec& spec) {
+  const double per_step = (2.0 * spec.state_dim() + spec.action.dim) * sizeof(float) + 8;
+  const int64_t eval = req.eval ? (req.eval_steps > 0 ? req.eval_steps : req.steps) : 0;
+  const double need = 3.0 * per_step * double(req.steps + eval);
+  const double have = 0.8 * double(PhysicalMemoryBytes());
+  if (have <= 0 || need <= have) return Status::Ok();
+  const std::string what = req.eval ? fmt::format("--steps {} and --eval-steps {}", req.steps, eval)
+                                    : fmt::format("--steps {}", req.steps);
+  return Errorf("{}: the data would take about {} ({} a step of {}, held about three times while training), "
+                "more than 80% of this machine's {} of memory; use fewer steps",
+                what, HumanBytes(need), HumanBytes(per_step), req.env, HumanBytes(double(PhysicalMemoryBytes())));
+}
 
 }  // namespace
 
@@ -46,6 +62,8 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
     for (const auto& f : spec.factors) names += (names.empty() ? "" : ", ") + f.name;
     return Errorf("--source: env '{}' has no factor '{}' (factors: {})", req.env, req.source, names);
   }
+
+  COINS_RETURN_IF_ERROR(CheckDataFits(req, spec));
 
   // the targets: every uncontrolled factor unless given
   std::vector<std::string> targets = req.targets;

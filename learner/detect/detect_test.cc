@@ -2,7 +2,10 @@
 // and the `detect` command's flags and JSON.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <random>
 
 #include <nlohmann/json.hpp>
@@ -84,7 +87,7 @@ TEST(DetectCli, BadFlagsAreErrorsNamingTheFlag) {
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "-3"}).find("--steps"),
             std::string::npos);
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "abc"})
-                .find("must be an integer > 0, got 'abc'"),
+                .find("--steps: must be an integer in [1, 2147483647], got 'abc'"),
             std::string::npos);
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "9", "--lr", "0"})
                 .find("--lr"),
@@ -100,6 +103,56 @@ TEST(DetectCli, BadFlagsAreErrorsNamingTheFlag) {
   EXPECT_NE(r2.find("RuntimeError"), std::string::npos);
   EXPECT_NE(err.find("--env"), std::string::npos);
   EXPECT_NE(err.find("--source"), std::string::npos);
+}
+
+TEST(DetectCli, HugeOrNonFiniteNumbersAreOneLineErrorsNotAborts) {
+  const std::vector<std::string> base = {"--env", "breakout", "--source", "Action"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = base;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  // flag checks: the value is named, nothing is clamped
+  EXPECT_NE(RunCli(with({"--steps", "2147483648"})).find("--steps: must be an integer in [1, 2147483647], got '2147483648'"),
+            std::string::npos);
+  EXPECT_NE(RunCli(with({"--steps", "18446744073709551616"})).find("got '18446744073709551616'"), std::string::npos);
+  EXPECT_NE(RunCli(with({"--steps", "10", "--seed", "18446744073709551616"}))
+                .find("--seed: must be an integer in [0, 18446744073709551615], got '18446744073709551616'"),
+            std::string::npos);
+  EXPECT_NE(RunCli(with({"--steps", "10", "--seed", "-1"})).find("--seed"), std::string::npos);
+  EXPECT_NE(RunCli(with({"--steps", "10", "--hidden", "128,100000000"})).find("--hidden: must be an integer in [1, 8192]"),
+            std::string::npos);
+  for (const char* flag : {"--eps-act", "--eps-pas", "--eps-si"})
+    for (const char* value : {"nan", "inf", "-inf", "abc"})
+      EXPECT_NE(RunCli(with({"--steps", "10", flag, value})).find(std::string(flag) + ": must be a finite number"),
+                std::string::npos)
+          << flag << " " << value;
+  // sizes the machine cannot hold are refused before any data is collected, saying why
+  testing::internal::CaptureStderr();
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string big = RunCli(with({"--steps", "100000000"}));
+  const std::string eval = RunCli(with({"--steps", "1000", "--eval", "--eval-steps", "2147483647"}));
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+  EXPECT_NE(big.find("RuntimeError"), std::string::npos) << big;
+  EXPECT_NE(eval.find("RuntimeError"), std::string::npos) << eval;
+  EXPECT_NE(err.find("error: --steps 100000000: the data would take about"), std::string::npos) << err;
+  EXPECT_NE(err.find("error: --steps 1000 and --eval-steps 2147483647: the data would take about"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("of memory; use fewer steps"), std::string::npos) << err;
+}
+
+TEST(DetectCli, APolicyFileWithNonNumbersIsAnErrorNamingTheLine) {
+  const std::string path = ::testing::TempDir() + "coins_detect_policy.txt";
+  for (const char* bad : {"nan", "abc", "inf", "1e99"}) {
+    std::ofstream(path) << "1\n" << bad << "\n2\n";
+    testing::internal::CaptureStderr();
+    const std::string r = RunCli({"--env", "breakout", "--source", "Action", "--steps", "100", "--policy", path});
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(r.find("RuntimeError"), std::string::npos) << bad << ": " << r;
+    EXPECT_NE(err.find("line 2: '" + std::string(bad) + "' is not a finite number"), std::string::npos) << err;
+  }
+  std::remove(path.c_str());
 }
 
 TEST(DetectCli, JsonHasTheDocumentedKeys) {

@@ -58,37 +58,21 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   EXPECT_GT(before_kill, snap_transitions);
   c.shards[0].Signal(SIGKILL);
   ASSERT_TRUE(c.shards[0].WaitFor(5s));
-  // restart past the participant lease (dds.lease_s, 4 s): the actor's writer has dropped the
-  // dead reader by then (an earlier restart sometimes left the actor's writer stalled on it)
+  // restart past the participant lease (dds.lease_s, 4 s), as a supervisor would
   std::this_thread::sleep_for(4500ms);
   c.StartShard(0, flags);
-  // the actor reconnects: the restarted shard stores new batches beyond what it restored.
-  // Known limit outside the replay service: in some runs the actor's writer stays stalled after
-  // its reader was killed over shared memory (Fast DDS 2.9); the actor is then restarted once,
-  // as a crashed actor would be, and the shard must take its data.
-  auto resumed = [&](std::chrono::seconds within) {
-    return WaitUntil([&] {
-      auto s = c.Stats(0);
-      return s.restored_transitions() == snap_transitions && s.inserted_transitions() > snap_transitions + 5000;
-    }, within);
-  };
-  bool reconnected = resumed(20s);
-  if (!reconnected) {
-    std::cerr << "note: the actor did not resume publishing after the shard restart (stalled writer); "
-                 "restarting the actor\n";
-    c.actors[0].Signal(SIGKILL);
-    ASSERT_TRUE(c.actors[0].WaitFor(5s));
-    c.actors.clear();
-    c.StartActors(0);
-    ASSERT_TRUE(resumed(30s)) << "restored " << c.Stats(0).restored_transitions() << " inserted "
-                              << c.Stats(0).inserted_transitions();
-  }
+  // the actor resumes by itself (its writer recovers when the stream stalls, see
+  // actors/batch_sink.h): the restarted shard stores new batches beyond what it restored
+  ASSERT_TRUE(WaitUntil([&] {
+    auto s = c.Stats(0);
+    return s.restored_transitions() == snap_transitions && s.inserted_transitions() > snap_transitions + 5000;
+  }, 30s)) << "restored " << c.Stats(0).restored_transitions() << " inserted " << c.Stats(0).inserted_transitions();
   EXPECT_FALSE(c.actors[0].Poll()) << "the actor died: " << c.actors[0].Describe();
 
   c.actors[0].Signal(SIGTERM);
   ASSERT_TRUE(c.actors[0].WaitFor(30s));
   EXPECT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
-  StopAll(c.shards, 10s);
+  StopAll(c.shards, 20s);
   ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
   auto shard = ReadJson(c.dir / "replay-0.json");
   auto actor = ReadJson(c.dir / "actor-0.json");
@@ -101,24 +85,41 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   if (a["stored_transitions"] == a["transitions"]) EXPECT_EQ(a["stored_checksum"], a["payload_checksum"]);
   EXPECT_GT(a["transitions"].get<uint64_t>(), snap_transitions);
   EXPECT_NE(a["payload_checksum"].get<uint64_t>(), snap_checksum);
-  // what the shard lost between its snapshot and its restart shows up as gaps, never twice
-  EXPECT_EQ(shard["duplicates"], 0);
-  if (reconnected) EXPECT_GT(shard["gaps"].get<uint64_t>(), 0u);
+  // what the shard lost between its snapshot and its restart shows up as gaps, never twice; the
+  // batches the actor resent after its recovery that the shard held already are duplicates
+  EXPECT_LE(shard["duplicates"].get<uint64_t>(), 256u);  // dds.transition_history
+  EXPECT_GT(shard["gaps"].get<uint64_t>(), 0u);
   EXPECT_EQ(a["next_seq"], actor["batches"]);
-  if (reconnected) EXPECT_LT(a["transitions"].get<uint64_t>(), actor["transitions_published"].get<uint64_t>());
+  EXPECT_LT(a["transitions"].get<uint64_t>(), actor["transitions_published"].get<uint64_t>());
+  const uint64_t final_transitions = a["stored_transitions"], final_checksum = a["stored_checksum"];
 
-  // the snapshot holds every transition up to it: a shard started on it alone (no actor)
-  // recomputes the per-actor checksum of its stored bytes and finds the snapshot's ledger
+  // the clean stop wrote a final snapshot: a shard started on it alone (no actor) holds exactly
+  // what the stopped shard held
   fs::remove(c.dir / "replay-0.json");
-  c.StartShard(0, flags);
   auto listening = [&] {
     std::ifstream log(c.dir / "replay-0.log");
     std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
-    return text.rfind("listening on partition") > text.rfind("resumed ");
+    return text.rfind("listening on partition") != std::string::npos &&
+           text.rfind("listening on partition") > text.rfind("resumed ");
   };
-  ASSERT_TRUE(WaitUntil(listening, 30s)) << "the third shard start did not come up";
-  StopAll(c.shards, 10s);
-  auto again = ReadJson(c.dir / "replay-0.json");
+  auto restart_alone = [&] {
+    c.StartShard(0, flags);
+    EXPECT_TRUE(WaitUntil(listening, 30s)) << "the shard did not come up";
+    StopAll(c.shards, 20s);
+    auto j = ReadJson(c.dir / "replay-0.json");
+    fs::remove(c.dir / "replay-0.json");
+    return j;
+  };
+  auto last = restart_alone();
+  ASSERT_FALSE(last.is_null());
+  EXPECT_EQ(last["restored_transitions"], final_transitions);
+  EXPECT_EQ(last["actors"][0]["stored_checksum"], final_checksum);
+
+  // the snapshot taken on command holds every transition up to it: a shard started on it alone
+  // recomputes the per-actor checksum of its stored bytes and finds the snapshot's ledger
+  for (const auto& f : Snapshots(snaps))
+    if (f != files.back()) fs::remove(f);
+  auto again = restart_alone();
   ASSERT_FALSE(again.is_null());
   EXPECT_EQ(again["restored_transitions"], snap_transitions);
   EXPECT_EQ(again["actors"][0]["stored_transitions"], snap_transitions);
@@ -131,7 +132,9 @@ TEST(ReplayResume, TruncatedAndBitFlippedSnapshotsAreReportedAndThePreviousOneUs
   c.shards_n = 1;
   c.actors_n = 1;
   fs::path snaps = c.dir / "snapshots";
-  std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string()};
+  // only the snapshots taken on command, none at each stop
+  std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string(), "--set",
+                                    "replay.snapshot_on_stop=false"};
   c.StartShards(flags);
   c.StartActors(30000);
   c.Join();
@@ -201,6 +204,87 @@ TEST(ReplayResume, PeriodicSnapshotsAreWrittenAndPruned) {
   }
   auto shard = ReadJson(c.dir / "replay-0.json");
   EXPECT_EQ(shard["snapshot_failures"], 0);
+}
+
+TEST(ReplayResume, ACleanStopWritesAFinalSnapshotThatARestartRestores) {
+  ReplayCluster c{TempDir("replay-final"), TestDomain()};
+  c.shards_n = 1;
+  c.actors_n = 1;
+  fs::path snaps = c.dir / "snapshots";
+  // no periodic snapshot and none on command: only the one a clean stop writes
+  std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string()};
+  c.StartShards(flags);
+  c.StartActors(100000);
+  ASSERT_TRUE(c.actors[0].WaitFor(120s));
+  ASSERT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
+  StopAll(c.shards, 20s);
+  ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
+  auto actor = ReadJson(c.dir / "actor-0.json");
+  auto first = ReadJson(c.dir / "replay-0.json");
+  ASSERT_FALSE(actor.is_null());
+  ASSERT_FALSE(first.is_null());
+  ASSERT_EQ(first["actors"][0]["transitions"], 100000);
+  ASSERT_EQ(Snapshots(snaps).size(), 1u) << "no final snapshot";
+
+  // a restart restores all 100,000, and their stored bytes hash to what the actor sent
+  fs::remove(c.dir / "replay-0.json");
+  c.StartShard(0, flags);
+  std::this_thread::sleep_for(1500ms);
+  StopAll(c.shards, 20s);
+  auto second = ReadJson(c.dir / "replay-0.json");
+  ASSERT_FALSE(second.is_null());
+  EXPECT_EQ(second["restored_transitions"], 100000);
+  EXPECT_EQ(second["actors"][0]["stored_transitions"], 100000);
+  EXPECT_EQ(second["actors"][0]["stored_checksum"], actor["payload_checksum"]);
+  EXPECT_EQ(second["actors"][0]["next_seq"], actor["batches"]);
+}
+
+// kill -9 of the shard while the actor publishes, and an immediate restart (or one past the
+// participant lease), 20 times: each time the actor resumes publishing by itself
+// disabled in the suite: 18 of 20 kills recover by themselves today and the run takes 3 minutes
+// (issue 10 item 5 is open); run it with --gtest_also_run_disabled_tests
+TEST(ReplayResume, DISABLED_TheActorResumesByItselfAfterEveryShardKill) {
+  ReplayCluster c{TempDir("replay-kills"), TestDomain()};
+  c.shards_n = 1;
+  c.actors_n = 1;
+  c.StartShards();
+  c.StartActors(0);
+  c.Join();
+  ASSERT_TRUE(WaitUntil([&] { return c.Stats(0).inserted_transitions() > 5000; }, 30s));
+  const int kills = 20;
+  int recovered = 0;
+  std::string failures;
+  for (int k = 0; k < kills; ++k) {
+    c.shards[0].Signal(SIGKILL);
+    ASSERT_TRUE(c.shards[0].WaitFor(5s));
+    if (k % 4 == 3) std::this_thread::sleep_for(4500ms);  // past the lease now and then
+    c.StartShard(0);
+    // the new shard's own count: it starts from nothing
+    auto t0 = std::chrono::steady_clock::now();
+    bool ok = WaitUntil([&] {
+      auto v = c.collector->Snapshot();
+      auto it = v.shards.find(0);
+      return it != v.shards.end() && it->second.received > t0 + 300ms &&
+             it->second.sample.inserted_transitions() > 2000;
+    }, 25s);
+    recovered += ok;
+    if (!ok) failures += fmt::format(" kill {}", k + 1);
+    ASSERT_FALSE(c.actors[0].Poll()) << "the actor died: " << c.actors[0].Describe();
+  }
+  EXPECT_EQ(recovered, kills) << "not resumed after" << failures;
+
+  // a clean stop after the last restart: the shard holds the actor's stream up to its end
+  c.actors[0].Signal(SIGTERM);
+  ASSERT_TRUE(c.actors[0].WaitFor(30s));
+  EXPECT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
+  StopAll(c.shards, 20s);
+  auto shard = ReadJson(c.dir / "replay-0.json");
+  auto actor = ReadJson(c.dir / "actor-0.json");
+  ASSERT_FALSE(shard.is_null());
+  ASSERT_FALSE(actor.is_null());
+  EXPECT_EQ(shard["actors"][0]["next_seq"], actor["batches"]);
+  if (shard["actors"][0]["stored_transitions"] == shard["actors"][0]["transitions"])
+    EXPECT_EQ(shard["actors"][0]["stored_checksum"], shard["actors"][0]["payload_checksum"]);
 }
 
 }  // namespace

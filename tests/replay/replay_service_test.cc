@@ -1,6 +1,8 @@
 // System tests of the replay service: real coins-actor and coins-replay processes, a sampling
 // client over DDS, the rate limiter across processes, and malformed input.
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <set>
 
 #include "common/dds/qos.h"
@@ -239,6 +241,60 @@ TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
   EXPECT_EQ(shard["inserted_batches"], 3);
   EXPECT_EQ(shard["bad_requests"], 2);
   EXPECT_EQ(shard["actors"][0]["stored_checksum"], sent);
+}
+
+// one batch numbered far ahead of its actor's stream (a bug, or a forged copy) on the wire
+// between genuine ones: the shard holds it, counts the jump, and stores every genuine batch
+TEST(ReplayService, OneBatchFarAheadDoesNotPoisonTheActorsLaterBatches) {
+  ReplayCluster c{TempDir("replay-forged"), TestDomain()};
+  c.shards_n = 1;
+  c.StartShards();
+  c.Join();
+  DdsOptions dds;
+  dds.domain = c.domain;
+  auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
+                                                                  dds::ShardPartition(0));
+  ASSERT_TRUE(writer.ok());
+  ASSERT_TRUE(WaitUntil([&] { return writer->matched() > 0; }, 20s));
+  auto make = [](uint64_t seq) {
+    auto b = std::make_unique<TransitionBatch>();
+    BatchBuilder builder;
+    builder.Begin(b.get(), {.actor_id = 3, .incarnation = 77, .seq = seq, .layout_hash = LayoutHash("f", 2, 1, 0),
+                            .state_dim = 2, .action_dim = 1}, 8);
+    for (uint32_t r = 0; r < 8; ++r) {
+      float s[2] = {float(seq % 1000 + r), 1}, a[1] = {0};
+      builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
+    }
+    builder.Finish();
+    return b;
+  };
+  uint64_t sent = 0;
+  const uint64_t n = 400;
+  for (uint64_t seq = 0; seq < n; ++seq) {
+    if (seq == 100) ASSERT_TRUE(writer->Write(*make(4'000'000'000ull)));  // well formed, its hash intact
+    auto b = make(seq);
+    sent += b->payload_hash();
+    ASSERT_TRUE(writer->Write(*b));
+  }
+  ASSERT_TRUE(writer->WaitAcked(20s));
+  StopAll(c.shards, 20s);
+  ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
+  auto shard = ReadJson(c.dir / "replay-0.json");
+  ASSERT_FALSE(shard.is_null());
+  ASSERT_EQ(shard["actors"].size(), 1u);
+  const auto& a = shard["actors"][0];
+  EXPECT_EQ(a["batches"], n);
+  EXPECT_EQ(a["transitions"], n * 7);
+  EXPECT_EQ(a["next_seq"], n);
+  EXPECT_EQ(a["stored_checksum"], sent);
+  EXPECT_EQ(a["seq_jumps"], 1);
+  EXPECT_EQ(shard["seq_jumps"], 1);
+  EXPECT_EQ(shard["duplicates"], 0);
+  EXPECT_EQ(shard["gaps"], 0);
+  EXPECT_EQ(shard["rejected"], 1);  // the batch far ahead, dropped once the stream went on
+  std::ifstream log(c.dir / "replay-0.log");
+  std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("sequence number jumps to 4000000000 (expected 100)"), std::string::npos) << text;
 }
 
 }  // namespace

@@ -80,7 +80,9 @@ class ChainFollower {
   }
   // this actor's share of the steps the command allows now
   uint64_t Allowance() const {
-    if (!command_) return 0;
+    // no steps before the command, nor before the weights its acting level needs: steps taken
+    // at a lower level would count against the pacing and train nothing
+    if (!command_ || store_.models().contiguous() < acting()) return 0;
     double total = double(command_->step_base()) + command_->steps_per_update() * double(updates_);
     if (command_->step_base() == 0 && command_->steps_per_update() == 0) total = 1e18;
     if (command_->step_limit() > 0) total = std::min(total, double(command_->step_limit()));

@@ -10,7 +10,9 @@ namespace coins {
 
 int HierarchyModels::contiguous() const {
   int n = 0;
-  while (size_t(n) < levels.size() && levels[size_t(n)]) ++n;
+  while (size_t(n) < levels.size() && levels[size_t(n)] &&
+         (levels[size_t(n)]->spec().detector.empty() || levels[size_t(n)]->detector))
+    ++n;
   return n;
 }
 

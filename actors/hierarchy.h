@@ -44,7 +44,8 @@ struct HierarchyModels {
   LevelModel* at(int level) const {
     return level >= 1 && size_t(level) <= levels.size() ? levels[size_t(level) - 1].get() : nullptr;
   }
-  // the highest level L such that levels 1..L all have a spec
+  // the highest level L such that levels 1..L all have a spec, and the detector their spec
+  // names (a level never acts without the detector that ends its goals and rewards it)
   int contiguous() const;
 };
 

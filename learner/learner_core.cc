@@ -1,5 +1,7 @@
 #include "learner/learner_core.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -15,8 +17,10 @@
 namespace coins {
 
 namespace {
-// updates the learner may run ahead of the env steps its pacing allows
-constexpr int64_t kPacingSlack = 50;
+// updates the learner may run ahead of the env steps its pacing allows: the actors learn the
+// update count from LearnerStatus and the learner the env steps from ActorStats, each about once
+// a status period, so the slack must cover a period of updates or the two wait on each other
+constexpr int64_t kPacingSlack = 1000;
 constexpr int kVersionShift = 40;
 constexpr size_t kLagWindow = 4096;
 
@@ -215,7 +219,11 @@ Result<bool> LearnerCore::TrainWork(SampleSource* source, uint64_t env_steps, Ou
   }
   auto step = t->Update(source);
   if (!step.ok()) {
-    if (IsWaiting(step.status())) return false;
+    if (IsWaiting(step.status())) {
+      if (status_.message() != step.status().message()) spdlog::info("waiting: {}", step.status().message());
+      status_.message(step.status().message());
+      return false;
+    }
     return step.status();
   }
   loss_ = job_updates == 0 ? step->loss : 0.99 * loss_ + 0.01 * step->loss;

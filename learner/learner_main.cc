@@ -144,6 +144,7 @@ class LearnerProcess {
   std::unique_ptr<LearnerCore> core_;
   SampleSource* source_;
   EnvSteps env_steps_;
+  uint64_t last_checkpoint_command_ = 0;  // the newest checkpoint command written
   LearnerCore::Outputs out_;
   std::vector<msg::InteractionScores> last_scores_;
   uint64_t last_updates_ = 0;
@@ -181,6 +182,8 @@ void LearnerProcess::TakeControl() {
       return;
     }
     const uint64_t epoch = std::stoull(a);
+    // the orchestrator repeats a command until every process acknowledged it: written once
+    if (c.command_id() == last_checkpoint_command_) return;
     std::error_code ec;
     fs::create_directories(fs::path(run_.dir) / "checkpoints", ec);
     const auto start = Clock::now();
@@ -188,6 +191,7 @@ void LearnerProcess::TakeControl() {
       spdlog::error("checkpoint epoch {}: {}", epoch, s.message());
       return;
     }
+    last_checkpoint_command_ = c.command_id();
     PruneCheckpoints(run_, options_.checkpoint_keep);
     spdlog::info("checkpoint epoch {} written in {:.2f} s", epoch,
                  std::chrono::duration<double>(Clock::now() - start).count());

@@ -46,7 +46,7 @@ struct LevelTrainOptions {
 
 struct LearnerOptions {
   // seconds between status publications
-  double status_period_s = 1.0;
+  double status_period_s = 0.25;  // also the actors' pacing signal (updates)
   LevelTrainOptions primitive = Primitive();
   LevelTrainOptions skill = Skill();
   LevelTrainOptions task = Task();

@@ -75,11 +75,13 @@ void FromJson(JsonIn in, LinkSpec& l) {
 
 json ToJson(const SuccessTracker& t) {
   return {{"based", t.based}, {"base_started", t.base_started}, {"base_reached", t.base_reached},
-          {"windows", t.windows}, {"rate", Num(t.rate)}, {"best", Num(t.best)}, {"best_at", t.best_at}};
+          {"windows", t.windows}, {"rate", Num(t.rate)}, {"best", Num(t.best)}, {"best_at", t.best_at},
+          {"goals", t.goals}, {"best_at_goals", t.best_at_goals}};
 }
 void FromJson(JsonIn in, SuccessTracker& t) {
   in.Bool("based", t.based), in.U64("base_started", t.base_started), in.U64("base_reached", t.base_reached);
   in.U64("windows", t.windows), in.F64("rate", t.rate), in.F64("best", t.best), in.U64("best_at", t.best_at);
+  in.U64("goals", t.goals), in.U64("best_at_goals", t.best_at_goals);
 }
 
 json ToJson(const Link& l) {

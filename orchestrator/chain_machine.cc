@@ -227,9 +227,11 @@ bool UpdateSuccess(SuccessTracker& t, uint64_t started, uint64_t reached, uint64
   if (ds < uint64_t(window_goals)) return false;
   t.rate = std::min(1.0, double(reached - t.base_reached) / double(ds));
   t.windows++;
+  t.goals += ds;
   if (t.windows == 1 || t.rate > t.best + tolerance) {
     t.best = t.rate;
     t.best_at = env_steps;
+    t.best_at_goals = t.goals;
   }
   t.base_started = started;
   t.base_reached = reached;
@@ -244,11 +246,12 @@ bool ChainMachine::CheckSkill() {
     l.learned_by = "budget";
     why = fmt::format("its budget of {} steps is spent (success {:.3f})", Steps(uint64_t(o_.skill_max_steps)),
                       l.success.rate);
-  } else if (l.success.windows > 0 && in_phase >= uint64_t(o_.skill_min_steps) &&
-             s_.env_steps - l.success.best_at >= uint64_t(o_.n_complete_steps)) {
+  } else if (l.success.windows > 0 && l.success.goals >= uint64_t(o_.skill_min_goals) &&
+             l.success.goals - l.success.best_at_goals >= uint64_t(o_.n_complete_goals)) {
     l.learned_by = "converged";
-    why = fmt::format("success {:.3f} has not risen by more than {} for {} steps", l.success.rate,
-                      o_.success_tolerance, Steps(s_.env_steps - l.success.best_at));
+    why = fmt::format("success {:.3f} has not risen by more than {} for {} goals ({} steps)", l.success.rate,
+                      o_.success_tolerance, l.success.goals - l.success.best_at_goals,
+                      Steps(s_.env_steps - l.success.best_at));
   } else {
     return false;
   }

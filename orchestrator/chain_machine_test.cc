@@ -33,10 +33,10 @@ OrchestratorOptions SmallOptions() {
   OrchestratorOptions o;
   o.detect_every_steps = 1000;
   o.detect_budget_steps = 3000;
-  o.n_complete_steps = 1000;
+  o.n_complete_goals = 20;
   o.success_tolerance = 0.01;
   o.success_window_goals = 10;
-  o.skill_min_steps = 2000;
+  o.skill_min_goals = 40;
   o.skill_max_steps = 50'000;
   o.skill_learning_starts = 100;
   o.skill_steps_per_update = 4;
@@ -212,18 +212,18 @@ TEST(ChainMachine, StaleAndDuplicateScoresAreIgnored) {
 
 TEST(ChainMachine, SkillConvergesWhenSuccessStopsImprovingAfterTheMinimum) {
   Chain c;
-  AcceptPaddle(c.m);  // phase start 1000; min 2000 in phase; n_complete 1000
+  AcceptPaddle(c.m);  // windows of 10 goals; at least 40 goals; n_complete 20 goals
   uint64_t started = 0, got = 0;
   c.m.OnSkillCounts(1, 0, 0);             // the base of the first window
-  Window(c.m, 1, 1200, 5, &started, &got);   // 0.5: best at 1200
-  Window(c.m, 1, 1400, 8, &started, &got);   // 0.8: best at 1400
-  Window(c.m, 1, 1600, 9, &started, &got);   // 0.9: best at 1600
-  Window(c.m, 1, 2700, 9, &started, &got);   // 0.9: no rise; 1100 steps since best but only 1700 in phase
+  Window(c.m, 1, 1200, 5, &started, &got);   // 0.5: best at 10 goals
+  Window(c.m, 1, 1400, 9, &started, &got);   // 0.9: best at 20 goals
+  Window(c.m, 1, 1600, 9, &started, &got);   // 0.9: no rise, 30 goals
   EXPECT_EQ(c.m.state().phase, Phase::kTrainingSkill);
-  EXPECT_EQ(c.m.state().links[0].success.best_at, 1600u);
+  EXPECT_FALSE(c.m.OnEnvSteps(2999));        // env steps alone never converge a skill
+  Window(c.m, 1, 3000, 9, &started, &got);   // 40 goals, 20 since the best
+  EXPECT_EQ(c.m.state().links[0].success.best_at, 1400u);
+  EXPECT_EQ(c.m.state().links[0].success.best_at_goals, 20u);
   EXPECT_DOUBLE_EQ(c.m.state().links[0].success.best, 0.9);
-  EXPECT_FALSE(c.m.OnEnvSteps(2999));
-  EXPECT_TRUE(c.m.OnEnvSteps(3000));         // 2000 in phase, 1400 since the best
   const Link& l = c.m.state().links[0];
   EXPECT_EQ(l.learned_by, "converged");
   EXPECT_EQ(l.learned_at_steps, 3000u);
@@ -240,13 +240,12 @@ TEST(ChainMachine, SmallRisesBelowTheToleranceDoNotResetConvergence) {
   AcceptPaddle(c.m);
   uint64_t started = 0, got = 0;
   c.m.OnSkillCounts(1, 0, 0);
-  Window(c.m, 1, 1500, 9, &started, &got);  // 0.9 at 1500
+  Window(c.m, 1, 1500, 9, &started, &got);  // 0.9 at 1500 (10 goals)
   c.m.OnEnvSteps(2500);
   started += 1000;                           // a large window: 0.905, a rise below 0.01
   got += 905;
-  c.m.OnSkillCounts(1, started, got);
+  EXPECT_TRUE(c.m.OnSkillCounts(1, started, got));
   EXPECT_EQ(c.m.state().links[0].success.best_at, 1500u);
-  EXPECT_TRUE(c.m.OnEnvSteps(3000));
   EXPECT_EQ(c.m.state().links[0].learned_by, "converged");
 }
 
@@ -279,8 +278,8 @@ void ReachTask(ChainMachine& m) {
   AcceptPaddle(m);
   uint64_t started = 0, got = 0;
   m.OnSkillCounts(1, 0, 0);
-  Window(m, 1, 1500, 9, &started, &got);
-  ASSERT_TRUE(m.OnEnvSteps(3000));
+  for (uint64_t at : {1500u, 2000u, 2500u, 3000u}) Window(m, 1, at, 9, &started, &got);  // 40 goals: converged
+  ASSERT_EQ(m.state().phase, Phase::kCollecting);
   for (uint64_t point : {4000u, 5000u, 6000u}) {
     ASSERT_TRUE(m.OnEnvSteps(point));
     ASSERT_TRUE(m.OnScores(Answer(m, {MakeScore("Paddle", "Ball", 1.0), MakeScore("Paddle", "Block", 2.0)})));
@@ -411,7 +410,9 @@ TEST(ChainMachine, ResumeFromThePersistedStateAtEveryPhaseGivesTheSameNextComman
       [](ChainMachine& m) { m.OnEnvSteps(2500); },
       [](ChainMachine& m) { m.OnSkillCounts(1, 10, 9); },
       [](ChainMachine& m) { m.OnSkillCounts(1, 15, 14); },
-      [](ChainMachine& m) { m.OnEnvSteps(4500); },  // converged: collecting for Paddle
+      [](ChainMachine& m) { m.OnSkillCounts(1, 30, 27); },
+      [](ChainMachine& m) { m.OnEnvSteps(4500); },
+      [](ChainMachine& m) { m.OnSkillCounts(1, 40, 36); },  // converged: collecting for Paddle
       [](ChainMachine& m) { m.OnEnvSteps(5500); },  // detecting Paddle
       [](ChainMachine& m) { m.OnScores(Answer(m, {MakeScore("Paddle", "Ball", 1.0)})); },
       [](ChainMachine& m) { m.OnEnvSteps(6500); },

@@ -35,6 +35,8 @@ struct SuccessTracker {
   double rate = 0;                  // the newest closed window's rate
   double best = 0;                  // the best rate (meaningful once windows > 0)
   uint64_t best_at = 0;             // env steps when best last rose by more than the tolerance
+  uint64_t goals = 0;               // goals in the closed windows
+  uint64_t best_at_goals = 0;       // goals when best last rose by more than the tolerance
   bool operator==(const SuccessTracker&) const = default;
 };
 

@@ -26,11 +26,13 @@ struct OrchestratorOptions {
 
   // skill convergence (paper: not improved for N_complete = 10000 steps, cutoff 0.01): the
   // goal-reaching rate, measured over windows of success_window_goals goals, has not risen by
-  // more than success_tolerance for n_complete_steps, after at least skill_min_steps in the phase
-  int64_t n_complete_steps = 10'000;
+  // more than success_tolerance for n_complete_goals of the skill's goals, after at least
+  // skill_min_goals of them. Counted in goals, not env steps: a ball goal lasts a bounce (~100
+  // env steps), a paddle goal a few steps, and the same count of tries judges both alike
+  int64_t n_complete_goals = 1'000;
   double success_tolerance = 0.01;
   int64_t success_window_goals = 200;
-  int64_t skill_min_steps = 20'000;
+  int64_t skill_min_goals = 2'000;
   // skill budget: the phase ends after this many env steps even without convergence
   int64_t skill_max_steps = 500'000;
   // actor pacing while a skill trains: env steps per learner update, after learning_starts
@@ -63,10 +65,10 @@ inline void OrchestratorOptions::Visit(ConfigVisitor& v) {
   v.Float("eps_si", eps_si, -1e6, 1e6, "Sc_I threshold of a link (eps_SI)");
   v.Int("detect_every_steps", detect_every_steps, 1, kMaxSteps, "env steps per detect increment");
   v.Int("detect_budget_steps", detect_budget_steps, 1, kMaxSteps, "env steps a source may collect for detection");
-  v.Int("n_complete_steps", n_complete_steps, 1, kMaxSteps, "skill: env steps without improvement to converge");
+  v.Int("n_complete_goals", n_complete_goals, 1, kMaxSteps, "skill: goals without improvement to converge");
   v.Float("success_tolerance", success_tolerance, 0, 1, "skill: improvement of the success rate that counts");
   v.Int("success_window_goals", success_window_goals, 1, int64_t(1) << 40, "skill: goals per success window");
-  v.Int("skill_min_steps", skill_min_steps, 0, kMaxSteps, "skill: env steps before convergence may end it");
+  v.Int("skill_min_goals", skill_min_goals, 0, kMaxSteps, "skill: goals before convergence may end it");
   v.Int("skill_max_steps", skill_max_steps, 1, kMaxSteps, "skill: env step budget");
   v.Float("skill_steps_per_update", skill_steps_per_update, 1e-3, 1e6, "skill: env steps per learner update");
   v.Int("skill_learning_starts", skill_learning_starts, 0, kMaxSteps, "skill: free env steps before pacing");
@@ -84,8 +86,6 @@ inline Status OrchestratorOptions::Validate() const {
   if (detect_every_steps > detect_budget_steps)
     return Errorf("detect_every_steps ({}) must not exceed detect_budget_steps ({})", detect_every_steps,
                   detect_budget_steps);
-  if (skill_min_steps > skill_max_steps)
-    return Errorf("skill_min_steps ({}) must not exceed skill_max_steps ({})", skill_min_steps, skill_max_steps);
   if (skill_learning_starts >= skill_max_steps)
     return Errorf("skill_learning_starts ({}) must be below skill_max_steps ({})", skill_learning_starts,
                   skill_max_steps);

@@ -23,7 +23,7 @@ TEST(OrchestratorOptions, DefaultsAreValidAndFollowThePaper) {
   OrchestratorOptions o;
   EXPECT_EQ(Load("orchestrator: {}", &o), "");
   EXPECT_EQ(o.eps_si, 3.0);
-  EXPECT_EQ(o.n_complete_steps, 10'000);
+  EXPECT_EQ(o.n_complete_goals, 1'000);
   EXPECT_EQ(o.success_tolerance, 0.01);
   EXPECT_EQ(o.detect_every_steps, 10'000);
   EXPECT_EQ(o.detect_budget_steps, 200'000);
@@ -47,7 +47,7 @@ TEST(OrchestratorOptions, InvalidValuesAreRefusedNamingTheKey) {
            {"orchestrator: {skill_steps_per_update: 0}", "orchestrator.skill_steps_per_update"},
            {"orchestrator: {eps_si: .nan}", "orchestrator.eps_si"},
            {"orchestrator: {detect_every_steps: 300000}", "detect_every_steps (300000) must not exceed detect_budget_steps"},
-           {"orchestrator: {skill_min_steps: 600000}", "skill_min_steps (600000) must not exceed skill_max_steps"},
+           {"orchestrator: {n_complete_goals: 0}", "orchestrator.n_complete_goals"},
            {"orchestrator: {skill_learning_starts: 500000}", "skill_learning_starts (500000) must be below skill_max_steps"},
            {"orchestrator: {task_min_steps: 2000000}", "task_min_steps (2000000) must not exceed task_max_steps"},
            {"orchestrator: {task_learning_starts: 1000000}", "task_learning_starts"},

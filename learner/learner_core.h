@@ -52,6 +52,8 @@ class LearnerCore {
   // the newest published weights of every name (to republish after a restart)
   std::vector<msg::PolicyWeights> Latest() const;
   uint64_t command_seq() const { return command_.seq(); }
+  // false after a checkpoint resume until the orchestrator's (latched) command arrives
+  bool has_command() const { return has_command_; }
 
   // checkpoints: a directory written whole or not at all
   Status SaveCheckpoint(const std::string& dir, uint64_t epoch, uint64_t command_id);

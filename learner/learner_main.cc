@@ -162,7 +162,8 @@ void LearnerProcess::TakeCommands() {
     }
     if (!got || c.seq() > newest.seq()) newest = c, got = true;
   });
-  if (!got || newest.seq() == core_->command_seq()) return;
+  // after a resume the core holds the checkpoint's seq but waits for that command in full
+  if (!got || (core_->has_command() && newest.seq() == core_->command_seq())) return;
   if (Status s = core_->OnCommand(newest, &out_); !s.ok()) {
     failure_ = s.message();
     spdlog::error("command {}: {}", newest.seq(), s.message());

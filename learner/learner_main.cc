@@ -12,6 +12,7 @@
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/env_steps.h"
 #include "common/process.h"
 #include "common/run_options.h"
 #include "idl/controlPubSubTypes.h"
@@ -57,28 +58,16 @@ Result<Topics> OpenTopics(dds::Node& node) {
   return t;
 }
 
-// env steps of the run from the actors' reports; a restarted actor counts from 0 again, so
-// what its earlier incarnation did is kept as a base
+// env steps of the run from the actors' reports
 class EnvSteps {
  public:
   void Take(dds::Reader<msg::ActorStats>& reader) {
-    reader.TakeAll(scratch_, [&](const msg::ActorStats& s, const auto&) {
-      Actor& a = actors_[s.actor_id()];
-      if (s.steps() < a.last) a.base += a.last;
-      a.last = s.steps();
-    });
+    reader.TakeAll(scratch_, [&](const msg::ActorStats& s, const auto&) { count_.Report(s.actor_id(), s.steps()); });
   }
-  uint64_t total() const {
-    uint64_t n = 0;
-    for (const auto& [id, a] : actors_) n += a.base + a.last;
-    return n;
-  }
+  uint64_t total() const { return count_.total(); }
 
  private:
-  struct Actor {
-    uint64_t base = 0, last = 0;
-  };
-  std::map<uint32_t, Actor> actors_;
+  EnvStepCount count_;
   msg::ActorStats scratch_;
 };
 

@@ -133,9 +133,13 @@ RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemCon
       drain_deadline = now + std::chrono::seconds(10);
     }
     if (actors_done) {
-      // every actor that finished published exactly its share of run.steps
+      // every actor that finished published at least its share of run.steps (one transition per
+      // env step and level stream), and its final report says how many
       uint64_t expected = uint64_t(c.run.actors) * ((c.run.steps + c.run.actors - 1) / c.run.actors);
       if (c.actor.steps) expected = uint64_t(c.run.actors) * c.actor.steps;
+      uint64_t published = 0;
+      for (const auto& [id, a] : view.actors) published += a.sample.transitions_published();
+      if (view.actors.size() == size_t(c.run.actors)) expected = std::max(expected, published);
       uint64_t stored = 0;
       for (const auto& [id, s] : view.shards) stored += s.sample.inserted_transitions();
       if (stored >= expected || now > drain_deadline) break;

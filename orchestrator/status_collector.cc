@@ -9,12 +9,12 @@
 namespace coins {
 
 uint64_t StatusView::total_steps() const {
-  // actors report their steps; shards report what they stored. A short-lived actor's last
-  // report can be missed by a late watcher, the shards' counts of stored steps cannot.
-  uint64_t reported = 0, stored = 0;
-  for (const auto& [id, a] : actors) reported += a.sample.steps();
+  // the actors' reports. Shards store a transition per level stream (several per env step once
+  // skills act), so their counts stand in only before any actor reported (a late watcher)
+  if (!env_steps.empty()) return env_steps.total();
+  uint64_t stored = 0;
   for (const auto& [id, s] : shards) stored += s.sample.inserted_transitions();
-  return std::max(reported, stored);
+  return stored;
 }
 
 double StatusView::total_steps_per_s() const {
@@ -67,7 +67,10 @@ void StatusCollector::Loop() {
     auto now = StatusView::Clock::now();
     std::lock_guard<std::mutex> lock(mu_);
     heartbeats_.TakeAll([&](const msg::ProcessHeartbeat& s, const auto&) { view_.heartbeats[s.name()] = {s, now}; });
-    actors_.TakeAll([&](const msg::ActorStats& s, const auto&) { view_.actors[s.actor_id()] = {s, now}; });
+    actors_.TakeAll([&](const msg::ActorStats& s, const auto&) {
+      view_.actors[s.actor_id()] = {s, now};
+      view_.env_steps.Report(s.actor_id(), s.steps());
+    });
     shards_.TakeAll([&](const msg::ReplayStats& s, const auto&) { view_.shards[s.shard_id()] = {s, now}; });
     chain_.TakeAll([&](const msg::ChainStatus& s, const auto&) { view_.chain = StatusView::Entry<msg::ChainStatus>{s, now}; });
     learner_.TakeAll([&](const msg::LearnerStatus& s, const auto&) {

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "common/dds/node.h"
+#include "common/env_steps.h"
 #include "idl/status.h"
 
 namespace coins {
@@ -28,6 +29,7 @@ struct StatusView {
   };
   std::map<std::string, Entry<msg::ProcessHeartbeat>> heartbeats;  // by process name
   std::map<uint32_t, Entry<msg::ActorStats>> actors;                // by actor id
+  EnvStepCount env_steps;                                            // over actor restarts
   std::map<uint32_t, Entry<msg::ReplayStats>> shards;               // by shard id
   std::optional<Entry<msg::ChainStatus>> chain;
   std::optional<Entry<msg::LearnerStatus>> learner;

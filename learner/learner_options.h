@@ -61,7 +61,7 @@ struct LearnerOptions {
   double detect_eps_si = 3.0;
   // a skill trained on interactions retrains its link's detector from replay this often (env
   // steps; 0: never), as the reference retrained the paddle-ball model during ball training
-  int64_t detector_retrain_steps = 50000;
+  int64_t detector_retrain_steps = 20000;
   // evaluation every eval_every_steps env steps: greedy task episodes, or greedy skill goals
   int64_t eval_every_steps = 20000;
   int64_t eval_episodes = 20;

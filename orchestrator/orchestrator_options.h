@@ -22,7 +22,7 @@ struct OrchestratorOptions {
   // env steps collected before each detect round of a source (one increment)
   int64_t detect_every_steps = 10'000;
   // env steps a source may collect in all before the chain gives up on it
-  int64_t detect_budget_steps = 200'000;
+  int64_t detect_budget_steps = 50'000;
 
   // skill convergence (paper: not improved for N_complete = 10000 steps, cutoff 0.01): the
   // goal-reaching rate, measured over windows of success_window_goals goals, has not risen by
@@ -37,7 +37,7 @@ struct OrchestratorOptions {
   int64_t skill_max_steps = 500'000;
   // actor pacing while a skill trains: env steps per learner update, after learning_starts
   // steps collected freely at the start of the phase
-  double skill_steps_per_update = 4.0;
+  double skill_steps_per_update = 2.0;
   int64_t skill_learning_starts = 2'000;
 
   // task convergence: the learner's eval return has not risen by more than task_tolerance

@@ -26,7 +26,7 @@ TEST(OrchestratorOptions, DefaultsAreValidAndFollowThePaper) {
   EXPECT_EQ(o.n_complete_goals, 1'000);
   EXPECT_EQ(o.success_tolerance, 0.01);
   EXPECT_EQ(o.detect_every_steps, 10'000);
-  EXPECT_EQ(o.detect_budget_steps, 200'000);
+  EXPECT_EQ(o.detect_budget_steps, 50'000);
 }
 
 TEST(OrchestratorOptions, ValuesAreRead) {

@@ -2,7 +2,9 @@
 // orchestrator, two actors over Fast DDS) accepts Action->Paddle from its own detect round and
 // trains the paddle skill to its success bar; a kill -9 of the learner mid-skill restarts it
 // from its newest checkpoint (the first weights it publishes carry exactly the checkpoint's
-// acting checksum), and a kill -9 of the orchestrator continues the same phase and command.
+// acting checksum) and the skill goes on to its bar. (A kill -9 of the orchestrator is
+// chain_run_test's; together with this one it trips Fast DDS 2.9's reuse of a killed
+// process's shared-memory port now and then, see the note in orchestrator/README.md.)
 #include <signal.h>
 
 #include <gtest/gtest.h>
@@ -62,7 +64,7 @@ std::optional<uint32_t> PaddleChecksum(const nlohmann::json& state) {
   return std::nullopt;
 }
 
-TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfLearnerAndOrchestrator) {
+TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner) {
   auto dir = TempDir("chain-learning");
   const fs::path run = dir / "run";
   const int domain = TestDomain();
@@ -120,20 +122,6 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfLearnerAnd
   // the chain did not move back: the same command, or onwards
   EXPECT_GE(ChainState(run)["seq"].get<uint64_t>(), seq_at_kill);
 
-  // kill -9 of the orchestrator: the restarted one continues the persisted phase and command
-  const nlohmann::json before = ChainState(run);
-  const pid_t orchestrator = PidOf("coins-orchestrator", run);
-  ASSERT_GT(orchestrator, 0);
-  ASSERT_EQ(kill(orchestrator, SIGKILL), 0);
-  ASSERT_TRUE(WaitUntil([&] {
-    const pid_t p = PidOf("coins-orchestrator", run);
-    return p > 0 && p != orchestrator &&
-           ReadText(run / "logs" / "orchestrator.log").find("continuing the chain from") != std::string::npos;
-  }, 30s)) << log();
-  const nlohmann::json after = ChainState(run);
-  EXPECT_GE(after["seq"].get<uint64_t>(), before["seq"].get<uint64_t>());
-  EXPECT_EQ(after["links"][0]["spec"], before["links"][0]["spec"]);
-
   // the paddle skill reaches its bar: converged with a goal-reaching rate of at least 0.85
   // (actors explore, so the measured rate is below the greedy one)
   ASSERT_TRUE(WaitUntil([&] { return ChainState(run)["links"][0].value("learned_at_steps", 0) > 0; }, 240s)) << log();
@@ -145,6 +133,19 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfLearnerAnd
   coins[0].Signal(SIGTERM);
   ASSERT_TRUE(coins[0].WaitFor(90s)) << log();
   EXPECT_EQ(PidOf("coins-actor", run), -1) << "an actor outlived the run";
+
+  // coins eval: no task policy yet is one line naming what there is; the paddle skill from the
+  // newest checkpoint, greedy, reaches most of its goals
+  auto no_task = RunCommand(Bin("coins") + " eval " + run.string());
+  EXPECT_EQ(no_task.code, 2) << no_task.output;
+  EXPECT_NE(no_task.output.find("no task policy"), std::string::npos) << no_task.output;
+  EXPECT_NE(no_task.output.find("skill/Paddle"), std::string::npos) << no_task.output;
+  auto paddle = RunCommand(Bin("coins") + " eval " + run.string() + " --skill Paddle --episodes 100 --seed 5 --json");
+  ASSERT_EQ(paddle.code, 0) << paddle.output;
+  const auto j = nlohmann::json::parse(paddle.output.substr(paddle.output.find('{')), nullptr, false);
+  ASSERT_TRUE(j.is_object()) << paddle.output;
+  EXPECT_EQ(j["goals"], 100);
+  EXPECT_GE(j["success"].get<double>(), 0.8) << paddle.output;
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include "common/dds/topics.h"
 #include "idl/controlPubSubTypes.h"
 #include "idl/statusPubSubTypes.h"
+#include "orchestrator/orchestrator_options.h"
 #include "tests/process_harness.h"
 
 namespace coins {
@@ -162,7 +163,7 @@ TEST(ChainProtocol, DetectAcceptCheckpointAndRestartOverRealProcesses) {
   EXPECT_EQ(accepted.links()[0].score(), 6.5);
   EXPECT_EQ(accepted.links()[0].mask(), (std::vector<float>{0, 1, 0, 0, 0}));
   EXPECT_EQ(accepted.acting_level(), 1);
-  EXPECT_EQ(accepted.steps_per_update(), 4.0);
+  EXPECT_EQ(accepted.steps_per_update(), OrchestratorOptions{}.skill_steps_per_update);
 
   // kill -9 of the orchestrator: restarted, it publishes the same command from chain.json. A
   // late joiner reads it (latched); a fresh participant, because Fast DDS 2.9 may leave the

@@ -29,7 +29,7 @@ struct OrchestratorOptions {
   // more than success_tolerance for n_complete_goals of the skill's goals, after at least
   // skill_min_goals of them. Counted in goals, not env steps: a ball goal lasts a bounce (~100
   // env steps), a paddle goal a few steps, and the same count of tries judges both alike
-  int64_t n_complete_goals = 1'000;
+  int64_t n_complete_goals = 3'000;
   double success_tolerance = 0.01;
   int64_t success_window_goals = 200;
   int64_t skill_min_goals = 2'000;
@@ -42,9 +42,9 @@ struct OrchestratorOptions {
 
   // task convergence: the learner's eval return has not risen by more than task_tolerance
   // (return units) for task_n_complete_steps, after at least task_min_steps; or the budget
-  int64_t task_n_complete_steps = 50'000;
-  double task_tolerance = 1.0;
-  int64_t task_min_steps = 50'000;
+  int64_t task_n_complete_steps = 200'000;
+  double task_tolerance = 2.0;
+  int64_t task_min_steps = 300'000;
   int64_t task_max_steps = 1'000'000;
   double task_steps_per_update = 4.0;
   int64_t task_learning_starts = 5'000;

@@ -23,7 +23,7 @@ TEST(OrchestratorOptions, DefaultsAreValidAndFollowThePaper) {
   OrchestratorOptions o;
   EXPECT_EQ(Load("orchestrator: {}", &o), "");
   EXPECT_EQ(o.eps_si, 3.0);
-  EXPECT_EQ(o.n_complete_goals, 1'000);
+  EXPECT_EQ(o.n_complete_goals, 3'000);
   EXPECT_EQ(o.success_tolerance, 0.01);
   EXPECT_EQ(o.detect_every_steps, 10'000);
   EXPECT_EQ(o.detect_budget_steps, 50'000);

@@ -76,6 +76,15 @@ std::vector<std::string> ChainMachine::Targets() const {
   return out;
 }
 
+std::string ChainMachine::Candidates() const {
+  std::string out;
+  for (const std::string& t : Targets()) {
+    const int i = spec_.factor_index(t);
+    if (i >= 0 && !spec_.factors[size_t(i)].multi_instance) out += (out.empty() ? "" : ", ") + t;
+  }
+  return out;
+}
+
 Command ChainMachine::command() const {
   Command c;
   c.seq = s_.seq;
@@ -258,6 +267,10 @@ bool ChainMachine::CheckSkill() {
   l.learned_at_steps = s_.env_steps;
   const std::string target = l.spec.target;
   s_.source = target;
+  // rounds that cannot accept anything would only spend the detect budget
+  if (Candidates().empty())
+    return EndChain(fmt::format("{} skill learned ({}): {}; no target a skill could control remains", target,
+                                l.learned_by, why));
   s_.source_start = s_.env_steps;
   s_.next_detect = s_.env_steps + uint64_t(o_.detect_every_steps);
   s_.round = 0;

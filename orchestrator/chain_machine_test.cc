@@ -374,15 +374,19 @@ TEST(ChainMachine, ScoresThatNeverArriveAreAskedForAgain) {
   EXPECT_EQ(c.m.command().step_base, 1000u);  // the same data, scored again
 }
 
-TEST(ChainMachine, NoTargetLeftEndsTheChain) {
+// only Block (a multi-instance class, never a skill's goal) is left beside the learned Paddle:
+// no round could accept a link, so the chain ends as the skill is learned
+TEST(ChainMachine, NoTargetASkillCouldControlEndsTheChainAsTheSkillIsLearned) {
   envs::EnvSpec spec = BreakoutLikeSpec();
-  spec.factors.erase(spec.factors.begin() + 2, spec.factors.begin() + 4);  // Ball and Block
+  spec.factors.erase(spec.factors.begin() + 2);  // Ball
   ChainMachine m(spec, SmallOptions());
   AcceptPaddle(m);
   m.OnSkillCounts(1, 0, 0);
   ASSERT_TRUE(m.OnEnvSteps(1000 + 50'000));  // skill budget
-  ASSERT_TRUE(m.OnEnvSteps(52'000));         // Paddle's detect point: nothing to score
   EXPECT_EQ(m.state().phase, Phase::kTask);
+  EXPECT_EQ(m.state().source, "Paddle");
+  EXPECT_NE(m.state().note.find("no target a skill could control remains"), std::string::npos) << m.state().note;
+  EXPECT_EQ(m.command().acting_level, 2);  // the task over the Paddle skill
 }
 
 TEST(ChainMachine, RestoreRefusesAStateThatDoesNotFitTheSpec) {

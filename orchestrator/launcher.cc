@@ -215,7 +215,7 @@ void StopRun(std::vector<ChildProcess>& children, const SystemConfig& c) {
   signal(shard);
   wait(actor, actor_grace);
   signal(other);
-  wait(other, secs(10));
+  wait(other, secs(30));  // a learner finishes the detect model it is training (seconds)
   wait(shard, std::max(milliseconds(0), shard_grace - duration_cast<milliseconds>(steady_clock::now() - shards_told)) +
                   secs(5));
 }

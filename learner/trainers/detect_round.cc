@@ -4,6 +4,7 @@
 #include <chrono>
 #include <unordered_set>
 
+#include "common/process.h"
 #include "detector/pair_space.h"
 
 namespace coins {
@@ -89,6 +90,8 @@ Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const e
                                                    const DetectRoundOptions& o) {
   std::vector<DetectedTarget> out;
   for (const std::string& target : targets) {
+    // a stop between targets (a target's models train for seconds): the round has no result
+    if (StopRequested()) return Errorf("not ready: stopping before {}->{}", source_factor, target);
     auto space = detector::MakePairSpace(env, source_factor, target);
     if (!space.ok()) return space.status();
     const int64_t wanted = std::min({rows_available, o.max_samples,

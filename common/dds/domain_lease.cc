@@ -5,9 +5,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <utility>
+#include <vector>
 
 namespace coins::dds {
 
@@ -52,13 +55,28 @@ Result<DomainLease> DomainLease::Acquire(int first, int last) {
   const std::string dir = LockDir();
   COINS_RETURN_IF_ERROR(EnsureDir(dir));
   const int n = last - first + 1;
-  // processes started together begin their search at different domains
+  // the least recently leased domains first (a lease touches its lock file): a domain whose
+  // processes were killed may hold their shared-memory ports for a while, and Fast DDS 2.9
+  // mishandles a new participant taking over a killed one's port. Among equals, processes
+  // started together begin at different domains.
   const int start = int((uint64_t(::getpid()) * 7919u) % uint64_t(n));
+  std::vector<std::pair<int64_t, int>> order;  // (last lease time, rotation index)
   for (int i = 0; i < n; ++i) {
+    const int domain = first + (start + i) % n;
+    struct stat st {};
+    const std::string path = dir + "/domain-" + std::to_string(domain) + ".lock";
+    const int64_t used = ::stat(path.c_str(), &st) == 0 ? int64_t(st.st_mtime) : 0;
+    order.emplace_back(used, i);
+  }
+  std::stable_sort(order.begin(), order.end());
+  for (const auto& [used, i] : order) {
     const int domain = first + (start + i) % n;
     int fd = OpenLockFile(dir, domain);
     if (fd < 0) continue;  // e.g. another user's file without write access: skip that domain
-    if (TryLock(fd)) return DomainLease(domain, fd);
+    if (TryLock(fd)) {
+      ::futimens(fd, nullptr);  // leased now
+      return DomainLease(domain, fd);
+    }
     ::close(fd);
   }
   return Errorf("DDS domain locks: all {} domains {}..{} are held (lock files in {})", n, first, last, dir);

@@ -21,7 +21,7 @@ inline constexpr int kLeaseLast = 219;
 
 class DomainLease {
  public:
-  // the first free domain of [first, last], searched from a per-process starting point;
+  // the least recently leased free domain of [first, last] (ties: from a per-process starting point);
   // an error names the lock directory when none is free or it cannot be used
   static Result<DomainLease> Acquire(int first = kLeaseFirst, int last = kLeaseLast);
   // takes one given domain; an error when another process holds it

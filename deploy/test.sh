@@ -8,5 +8,8 @@ start=$(date +%s)
 echo "build finished in $(( $(date +%s) - start )) s"
 # remove shared-memory files that killed runs may have left behind
 fastdds shm clean > /dev/null 2>&1 || true
-ctest --test-dir build --output-on-failure --parallel 2 --timeout 600 "$@"
+# A failed test runs once more, and ctest prints both attempts: on one machine Fast DDS 2.9 over
+# shared memory now and then leaves a freshly matched writer unacknowledged (the stall of issue
+# 10 item 5; about one system test in two suite runs). A test that fails twice fails the suite.
+ctest --test-dir build --output-on-failure --parallel 2 --timeout 600 --repeat until-pass:2 "$@"
 echo "build and tests finished in $(( $(date +%s) - start )) s"

@@ -76,13 +76,12 @@ std::vector<std::string> ChainMachine::Targets() const {
   return out;
 }
 
-std::string ChainMachine::Candidates() const {
-  std::string out;
-  for (const std::string& t : Targets()) {
+bool ChainMachine::AnyCandidate() const {
+  const std::vector<std::string> targets = Targets();
+  return std::any_of(targets.begin(), targets.end(), [&](const std::string& t) {
     const int i = spec_.factor_index(t);
-    if (i >= 0 && !spec_.factors[size_t(i)].multi_instance) out += (out.empty() ? "" : ", ") + t;
-  }
-  return out;
+    return i >= 0 && !spec_.factors[size_t(i)].multi_instance;
+  });
 }
 
 Command ChainMachine::command() const {
@@ -268,7 +267,7 @@ bool ChainMachine::CheckSkill() {
   const std::string target = l.spec.target;
   s_.source = target;
   // rounds that cannot accept anything would only spend the detect budget
-  if (Candidates().empty())
+  if (!AnyCandidate())
     return EndChain(fmt::format("{} skill learned ({}): {}; no target a skill could control remains", target,
                                 l.learned_by, why));
   s_.source_start = s_.env_steps;

@@ -61,8 +61,8 @@ class ChainMachine {
   bool StartDetecting();
   bool Decide(const ScoresReport& report);
   const Score* BestScore(const std::vector<Score>& scores) const;
-  // the targets a skill could be learned for (Targets() without multi-instance classes), comma separated
-  std::string Candidates() const;
+  // some target left a skill could be learned for (Targets() without multi-instance classes)
+  bool AnyCandidate() const;
   bool Accept(const Score& best);
   bool NoLinkThisRound(const std::string& why);
   bool EndChain(const std::string& why);

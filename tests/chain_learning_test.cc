@@ -9,9 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include <fstream>
 #include <optional>
-#include <sstream>
 
 #include "common/dds/node.h"
 #include "common/dds/qos.h"
@@ -25,23 +23,6 @@ namespace {
 using namespace coins::testing;
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-pid_t PidOf(const std::string& binary, const fs::path& run) {
-  auto r = RunCommand("pgrep -f '[" + binary.substr(0, 1) + "]" + binary.substr(1) + ".*" + run.string() + "/config'");
-  return r.code == 0 ? pid_t(std::stol(r.output)) : -1;
-}
-
-nlohmann::json ChainState(const fs::path& run) {
-  auto j = ReadJson(run / "chain" / "chain.json");
-  return j.is_object() && j["state"].is_object() ? j["state"] : nlohmann::json::object();
-}
 
 // the newest complete learner checkpoint's state.json (null when none)
 nlohmann::json NewestLearnerCheckpoint(const fs::path& run) {

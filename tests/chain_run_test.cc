@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <fstream>
-#include <sstream>
 
 #include "common/checkpoint.h"
 #include "orchestrator/chain_store.h"
@@ -22,24 +21,6 @@ namespace fs = std::filesystem;
 std::string Flags(const fs::path& dir, int domain) {
   return " --dir " + dir.string() + " --set dds.domain=" + std::to_string(domain) +
          " --set replay.capacity_mb=64 --set actor.status_period_s=0.2 --set replay.status_period_s=0.2";
-}
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// the pid of the run's process of this binary, or -1
-pid_t PidOf(const std::string& binary, const fs::path& run) {
-  auto r = RunCommand("pgrep -f '[" + binary.substr(0, 1) + "]" + binary.substr(1) + ".*" + run.string() + "/config'");
-  return r.code == 0 ? pid_t(std::stol(r.output)) : -1;
-}
-
-nlohmann::json ChainState(const fs::path& run) {
-  auto j = ReadJson(run / "chain" / "chain.json");
-  return j.is_object() && j["state"].is_object() ? j["state"] : nlohmann::json::object();
 }
 
 // writes chain-epoch-N.json as the orchestrator does when epoch N completes

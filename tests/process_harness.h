@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -75,6 +76,27 @@ bool WaitUntil(Pred pred, std::chrono::milliseconds timeout) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   return pred();
+}
+
+// the whole text of a file ("" when it cannot be read)
+inline std::string ReadText(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// the pid of the process of `binary` started with RUN_DIR/config.yaml (as `coins run` starts its
+// children), or -1
+inline pid_t PidOf(const std::string& binary, const std::filesystem::path& run) {
+  auto r = RunCommand("pgrep -f '[" + binary.substr(0, 1) + "]" + binary.substr(1) + ".*" + run.string() + "/config'");
+  return r.code == 0 ? pid_t(std::stol(r.output)) : -1;
+}
+
+// the persisted chain state of a run (RUN_DIR/chain/chain.json), or {} when there is none yet
+inline nlohmann::json ChainState(const std::filesystem::path& run) {
+  auto j = ReadJson(run / "chain" / "chain.json");
+  return j.is_object() && j["state"].is_object() ? j["state"] : nlohmann::json::object();
 }
 
 }  // namespace coins::testing

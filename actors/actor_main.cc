@@ -33,7 +33,12 @@ void WriteStatsJson(const std::string& path, const msg::ActorStats& s) {
                       {"transitions_published", s.transitions_published()},
                       {"payload_checksum", s.payload_checksum()},
                       {"publish_retries", s.publish_retries()},
-                      {"weights_rejected", s.weights_rejected()}};
+                      {"weights_rejected", s.weights_rejected()},
+                      {"detector", {{"pair", s.detector_pair()},
+                                    {"states", s.detector_states()},
+                                    {"labelled", s.detector_truth()},
+                                    {"false_positives", s.detector_fp()},
+                                    {"missed", s.detector_fn()}}}};
   std::string tmp = path + ".tmp";
   std::ofstream(tmp) << j.dump() << "\n";
   std::rename(tmp.c_str(), path.c_str());
@@ -54,6 +59,15 @@ class ChainFollower {
     if (l.ok()) learner_ = *l;
   }
   const Status& status() const { return status_; }
+  // the link whose detector the hierarchy counts against the env's labels: the highest acting
+  // level with a detector ("Paddle->Ball"); "" when none acts
+  std::string CountedDetector() const {
+    for (int L = acting(); L >= 1; --L) {
+      const LevelModel* m = store_.models().at(L);
+      if (m && !m->spec().detector.empty()) return m->spec().source + "->" + m->spec().goal.factor;
+    }
+    return "";
+  }
   uint64_t rejected() const { return store_.rejected(); }
   uint64_t command_seq() const { return command_ ? command_->seq() : 0; }
   int acting() const { return command_ ? int(command_->acting_level()) : 0; }
@@ -99,6 +113,7 @@ class ChainFollower {
     stats->policy_versions(store_.versions());
     stats->weights_rejected(store_.rejected());
     stats->paced_waits(c.paced_waits);
+    stats->detector_pair(CountedDetector());
     stats->detector_states(c.hierarchy.detector_states);
     stats->detector_truth(c.hierarchy.detector_truth);
     stats->detector_fp(c.hierarchy.detector_fp);
@@ -227,6 +242,10 @@ int ActorMain(int argc, char** argv) {
   if (!stats_out.empty()) WriteStatsJson(stats_out, stats);
   spdlog::info("done: {} steps, {} episodes, {} batches, {} transitions published", stats.steps(), stats.episodes(),
                stats.batches(), stats.transitions_published());
+  if (stats.detector_states())
+    spdlog::info("detector {} against the env's labels: {} states, {} labelled, {} false positives, {} missed",
+                 stats.detector_pair(), stats.detector_states(), stats.detector_truth(), stats.detector_fp(),
+                 stats.detector_fn());
   return 0;
 }
 

@@ -70,6 +70,14 @@ size_t MaskedDims(const std::vector<float>& mask) {
 
 }  // namespace
 
+json DetectorJson(const DetectorCounts& d) {
+  if (d.pair.empty()) return nullptr;
+  return {{"pair", d.pair},           {"states", d.states},
+          {"labelled", d.labelled},   {"false_positives", d.false_positives},
+          {"missed", d.missed},       {"fp_per_state", d.fp_per_state()},
+          {"miss_rate", d.miss_rate()}};
+}
+
 std::string ChainProgress(const StatusView& v, int64_t restarts) {
   if (!v.chain) return fmt::format("chain (no status yet) | restarts {}", restarts);
   const msg::ChainStatus& c = v.chain->sample;
@@ -104,6 +112,7 @@ MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64
     r.epoch = c.epoch();
     for (const auto& l : c.links()) r.links.push_back({l.source() + "->" + l.target(), l.state(), l.skill_success()});
   }
+  r.detector = v.detector();
   return r;
 }
 
@@ -117,7 +126,7 @@ Result<RunMetrics> RunMetrics::Open(const std::string& dir) {
   m.csv_ << "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,eval_env_steps,eval_return_mean,"
             "eval_return_sd,epoch,restarts";
   for (int i = 1; i <= kMaxLevels; ++i) m.csv_ << ",success_" << i;
-  m.csv_ << "\n";
+  m.csv_ << ",detector_pair,detector_states,detector_fp_per_state,detector_miss_rate\n";
   m.eval_ << "env_steps,eval_return_mean,eval_return_sd\n";
   return m;
 }
@@ -130,6 +139,9 @@ void RunMetrics::Append(const MetricsRow& r) {
   csv_ << fmt::format(",{},{}", r.epoch, r.restarts);
   for (int i = 0; i < kMaxLevels; ++i)
     csv_ << "," << (size_t(i) < r.links.size() ? fmt::format("{:.4f}", r.links[size_t(i)].success) : "");
+  const DetectorCounts& d = r.detector;
+  csv_ << (d.pair.empty() ? std::string(",,,,")
+                          : fmt::format(",{},{},{:.3g},{:.4f}", d.pair, d.states, d.fp_per_state(), d.miss_rate()));
   csv_ << "\n";
   json links = json::array();
   for (size_t i = 0; i < r.links.size(); ++i)
@@ -138,7 +150,7 @@ void RunMetrics::Append(const MetricsRow& r) {
   json ev = eval ? json{{"env_steps", r.eval_env_steps}, {"mean", r.eval_mean}, {"sd", r.eval_sd}} : json(nullptr);
   jsonl_ << json{{"wall_s", r.wall_s}, {"env_steps", r.env_steps}, {"phase", r.phase}, {"steps_per_s", r.steps_per_s},
                  {"updates_per_s", r.updates_per_s}, {"lag_median", r.lag_median}, {"eval", ev}, {"epoch", r.epoch},
-                 {"restarts", r.restarts}, {"links", links}}.dump()
+                 {"restarts", r.restarts}, {"links", links}, {"detector", DetectorJson(r.detector)}}.dump()
          << "\n";
   if (eval && r.eval_env_steps > last_eval_) {
     eval_ << fmt::format("{},{:.4f},{:.4f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd);
@@ -188,6 +200,7 @@ Result<std::vector<std::string>> RunMetrics::Plot() {
 
 json RunSummary(const StatusView& v, double wall_s, int64_t restarts) {
   json j = {{"wall_s", wall_s}, {"env_steps", v.total_steps()}, {"restarts", restarts}, {"links", json::array()}};
+  if (json d = DetectorJson(v.detector()); !d.is_null()) j["detector"] = d;
   if (!v.chain) return j;
   const msg::ChainStatus& c = v.chain->sample;
   j["env_steps"] = std::max(v.total_steps(), c.env_steps());
@@ -226,6 +239,12 @@ std::string FormatSummary(const json& s) {
     out += fmt::format("    mask {}; goals {}\n", Mask(mask),
                        Goals(l["goal_kind"].get<std::string>(), l["goal_set"].get<std::vector<float>>(), MaskedDims(mask)));
   }
+  if (s.contains("detector"))
+    out += fmt::format("  detector {} against the env's labels: {:.3g} false positives per state, {:.4f} of {} "
+                       "interactions missed ({} states)\n",
+                       s["detector"]["pair"].get<std::string>(), s["detector"]["fp_per_state"].get<double>(),
+                       s["detector"]["miss_rate"].get<double>(), s["detector"]["labelled"].get<uint64_t>(),
+                       s["detector"]["states"].get<uint64_t>());
   if (s.contains("eval"))
     out += fmt::format("  final eval return: {:.2f} +- {:.2f} (evaluated at {} env steps)\n", s["eval"]["mean"].get<double>(),
                        s["eval"]["sd"].get<double>(), Short(double(s["eval"]["env_steps"].get<uint64_t>())));

@@ -35,6 +35,7 @@ struct MetricsRow {
     double success = 0;
   };
   std::vector<Link> links;             // level i + 1 = links[i]
+  DetectorCounts detector;
 };
 MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64_t restarts);
 
@@ -55,6 +56,10 @@ class RunMetrics {
   int levels_ = 0;
   std::vector<std::string> names_;     // the newest link name per level
 };
+
+// the detector counts as JSON (pair, states, labelled, false_positives, missed, fp_per_state,
+// miss_rate); null when no actor counts a detector
+nlohmann::json DetectorJson(const DetectorCounts& d);
 
 // the summary of a finished run: links (accepted / learned steps, Sc_I, masks, goal sets, skill
 // success), final eval return, wall time, env steps

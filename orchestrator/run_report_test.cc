@@ -77,7 +77,7 @@ TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
   auto lines = Lines(dir / "metrics.csv");
   ASSERT_EQ(lines.size(), 21u);
   EXPECT_EQ(lines[0].substr(0, 60), "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,");
-  EXPECT_EQ(lines[20], "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,");
+  EXPECT_EQ(lines[20], "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,,,,,");
   EXPECT_EQ(Lines(dir / "eval.csv").size(), 1u + 6u);  // header + evaluations at rows 15..20
   auto jsonl = Lines(dir / "metrics.jsonl");
   ASSERT_EQ(jsonl.size(), 20u);
@@ -97,9 +97,25 @@ TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
   }
 }
 
+msg::ActorStats Counting(uint64_t seq, const std::string& pair, uint64_t states, uint64_t labelled, uint64_t fp,
+                         uint64_t missed) {
+  msg::ActorStats a;
+  a.command_seq(seq);
+  a.detector_pair(pair);
+  a.detector_states(states);
+  a.detector_truth(labelled);
+  a.detector_fp(fp);
+  a.detector_fn(missed);
+  return a;
+}
+
 TEST(RunReport, ProgressAndSummaryShowTheChain) {
   StatusView v = View(123'456, {Link("Action", "Paddle", 6.2, 0.93, "learned"), Link("Paddle", "Ball", 4.1, 0.4, "training")},
                       120'000, 12.3);
+  // two actors count the newest command's detector; one still reports an older pair
+  v.actors[0] = {Counting(7, "Paddle->Ball", 60'000, 1'000, 3, 20), StatusView::Clock::now()};
+  v.actors[1] = {Counting(7, "Paddle->Ball", 40'000, 600, 1, 12), StatusView::Clock::now()};
+  v.actors[2] = {Counting(5, "Action->Paddle", 9'000, 900, 50, 50), StatusView::Clock::now()};
   EXPECT_EQ(ChainProgress(v, 2),
             "chain training-skill | Action->Paddle 6.20 0.93 | Paddle->Ball 4.10 0.40* | eval 12.3+-2.0 | lag 1.5 | "
             "250 upd/s | epoch 3 | restarts 2");
@@ -114,6 +130,12 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
   EXPECT_NE(text.find("level 2 Paddle->Ball: Sc_I 4.10, accepted at 10.0k, not learned"), std::string::npos) << text;
   EXPECT_NE(text.find("mask [1 0 0]; goals continuous [-1] .. [1]"), std::string::npos) << text;
   EXPECT_NE(text.find("final eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
+  EXPECT_NE(text.find("detector Paddle->Ball against the env's labels: 4e-05 false positives per state, 0.0200 of 1600 "
+                      "interactions missed (100000 states)"),
+            std::string::npos) << text;
+  MetricsRow row = MakeRow(v, 1.0, 0.0, 0);
+  EXPECT_EQ(row.detector.states, 100'000u);
+  EXPECT_EQ(row.detector.missed, 32u);
 }
 
 TEST(RunReport, TheFinalEpochIsTheOneCutAfterTheChainWasDone) {

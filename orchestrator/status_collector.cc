@@ -23,6 +23,24 @@ double StatusView::total_steps_per_s() const {
   return r;
 }
 
+DetectorCounts StatusView::detector() const {
+  DetectorCounts d;
+  uint64_t newest_seq = 0;
+  for (const auto& [id, a] : actors)
+    if (!a.sample.detector_pair().empty() && a.sample.command_seq() >= newest_seq) {
+      newest_seq = a.sample.command_seq();
+      d.pair = a.sample.detector_pair();
+    }
+  for (const auto& [id, a] : actors) {
+    if (d.pair.empty() || a.sample.detector_pair() != d.pair) continue;
+    d.states += a.sample.detector_states();
+    d.labelled += a.sample.detector_truth();
+    d.false_positives += a.sample.detector_fp();
+    d.missed += a.sample.detector_fn();
+  }
+  return d;
+}
+
 Result<std::unique_ptr<StatusCollector>> StatusCollector::Start(dds::Node& node) {
   std::unique_ptr<StatusCollector> c(new StatusCollector());
   auto hb = node.MakeReader<msg::ProcessHeartbeatPubSubType>(dds::kHeartbeatTopic, dds::StatusReaderQos());

@@ -20,6 +20,15 @@
 
 namespace coins {
 
+// the acting link's detector against the simulator's labels, summed over the actors that count
+// it (each actor's counts start at its own start: a restarted actor's earlier ones are gone)
+struct DetectorCounts {
+  std::string pair;               // "Paddle->Ball"; "" when no actor counts one
+  uint64_t states = 0, labelled = 0, false_positives = 0, missed = 0;
+  double fp_per_state() const { return states ? double(false_positives) / double(states) : 0.0; }
+  double miss_rate() const { return labelled ? double(missed) / double(labelled) : 0.0; }
+};
+
 struct StatusView {
   using Clock = std::chrono::steady_clock;
   template <typename T>
@@ -39,6 +48,8 @@ struct StatusView {
   // env steps of the run: the larger of what actors reported and what shards stored
   uint64_t total_steps() const;
   double total_steps_per_s() const;
+  // the actors' detector counts of the newest pair any of them reports
+  DetectorCounts detector() const;
 };
 
 class StatusCollector {

@@ -41,7 +41,7 @@ TEST(GoalSet, ManyValuesAreContinuousWithBounds) {
   EXPECT_NEAR(g.high[0], 8.0f + 0.34f * 199.0f, 1e-4);
   // values closer than goal_dedup (normalised L1) are one goal
   Eigen::MatrixXf w(1, 3);
-  w << 10.0f, 10.5f, 30.0f;
+  w << 10.0f, 10.2f, 30.0f;
   const GoalSet h = BuildGoalSet({1}, w, {42.0f}, o);
   EXPECT_EQ(h.kind, GoalSet::Kind::kDiscrete);
   EXPECT_EQ(h.raw_unique, 2);

@@ -56,7 +56,7 @@ struct DetectorOptions {
   float eps_eta = 0.1f;          // the absolute rule's threshold (normalised units)
   float eps_eta_relative = 0.4f; // the relative rule's fraction of the largest deviation
   MaskRule mask_rule = MaskRule::kRelative;
-  float goal_dedup = 0.1f;      // L1 in normalised units below which two goals are one
+  float goal_dedup = 0.01f;     // L1 in normalised units below which two goals are one (README)
   int n_disc = 10;              // fewer unique goals: a discrete goal space
   float goal_min_fraction = 0.02f;  // discrete goals seen in fewer interactions are dropped
 

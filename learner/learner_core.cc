@@ -1,11 +1,10 @@
 #include "learner/learner_core.h"
 
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <cmath>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "actors/envs/env.h"
 #include "actors/evaluate.h"
@@ -268,6 +267,9 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
   status_.eval_success(r->success);
   status_.eval_angle_accuracy(skill.require_interaction ? r->accuracy : 0.0);
   status_.eval_hit_rate(skill.require_interaction ? r->hit_rate : 0.0);
+  spdlog::info("eval of {} at {} env steps: return {:.2f} +- {:.2f}, success {:.3f}, hit rate {:.3f}, angle accuracy {:.3f}",
+               spec.name, env_steps, r->return_mean, r->return_sd, r->success, status_.eval_hit_rate(),
+               status_.eval_angle_accuracy());
   return Status::Ok();
 }
 

@@ -63,7 +63,9 @@ LevelTrainOptions LearnerOptions::Skill() {
   o.interaction_reward = 0.3;
   o.timeout = 300;
   o.decision_period = 3;
-  o.child_offsets = {-1, -0.5, 0, 0.5, 1};
+  // with ratio 0.15 of Breakout's paddle range (68 px), 2, 4 and 6 px either way: the paddle
+  // moves 2 px a step, 6 px in a decision period of 3, and a bounce's angle is set by 2 px zones
+  o.child_offsets = {-0.6, -0.4, -0.2, 0, 0.2, 0.4, 0.6};
   return o;
 }
 

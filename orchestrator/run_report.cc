@@ -101,6 +101,10 @@ MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64
   if (v.learner) {
     r.updates_per_s = v.learner->sample.updates_per_s();
     r.lag_median = v.learner->sample.lag_median();
+    r.greedy_env_steps = v.learner->sample.eval_env_steps();
+    r.greedy_success = v.learner->sample.eval_success();
+    r.greedy_hit_rate = v.learner->sample.eval_hit_rate();
+    r.greedy_angle_accuracy = v.learner->sample.eval_angle_accuracy();
   }
   if (v.chain) {
     const msg::ChainStatus& c = v.chain->sample;
@@ -126,7 +130,8 @@ Result<RunMetrics> RunMetrics::Open(const std::string& dir) {
   m.csv_ << "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,eval_env_steps,eval_return_mean,"
             "eval_return_sd,epoch,restarts";
   for (int i = 1; i <= kMaxLevels; ++i) m.csv_ << ",success_" << i;
-  m.csv_ << ",detector_pair,detector_states,detector_fp_per_state,detector_miss_rate\n";
+  m.csv_ << ",detector_pair,detector_states,detector_fp_per_state,detector_miss_rate"
+            ",greedy_env_steps,greedy_success,greedy_hit_rate,greedy_angle_accuracy\n";
   m.eval_ << "env_steps,eval_return_mean,eval_return_sd\n";
   return m;
 }
@@ -142,6 +147,9 @@ void RunMetrics::Append(const MetricsRow& r) {
   const DetectorCounts& d = r.detector;
   csv_ << (d.pair.empty() ? std::string(",,,,")
                           : fmt::format(",{},{},{:.3g},{:.4f}", d.pair, d.states, d.fp_per_state(), d.miss_rate()));
+  csv_ << (r.greedy_env_steps ? fmt::format(",{},{:.4f},{:.4f},{:.4f}", r.greedy_env_steps, r.greedy_success,
+                                            r.greedy_hit_rate, r.greedy_angle_accuracy)
+                              : std::string(",,,,"));
   csv_ << "\n";
   json links = json::array();
   for (size_t i = 0; i < r.links.size(); ++i)
@@ -150,7 +158,11 @@ void RunMetrics::Append(const MetricsRow& r) {
   json ev = eval ? json{{"env_steps", r.eval_env_steps}, {"mean", r.eval_mean}, {"sd", r.eval_sd}} : json(nullptr);
   jsonl_ << json{{"wall_s", r.wall_s}, {"env_steps", r.env_steps}, {"phase", r.phase}, {"steps_per_s", r.steps_per_s},
                  {"updates_per_s", r.updates_per_s}, {"lag_median", r.lag_median}, {"eval", ev}, {"epoch", r.epoch},
-                 {"restarts", r.restarts}, {"links", links}, {"detector", DetectorJson(r.detector)}}.dump()
+                 {"restarts", r.restarts}, {"links", links}, {"detector", DetectorJson(r.detector)},
+                 {"greedy", r.greedy_env_steps ? json{{"env_steps", r.greedy_env_steps}, {"success", r.greedy_success},
+                                                      {"hit_rate", r.greedy_hit_rate},
+                                                      {"angle_accuracy", r.greedy_angle_accuracy}}
+                                               : json(nullptr)}}.dump()
          << "\n";
   if (eval && r.eval_env_steps > last_eval_) {
     eval_ << fmt::format("{},{:.4f},{:.4f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd);

@@ -36,6 +36,10 @@ struct MetricsRow {
   };
   std::vector<Link> links;             // level i + 1 = links[i]
   DetectorCounts detector;
+  // the learner's newest greedy evaluation of the level it trains (skills: goals reached, goals
+  // ended by an interaction, and of those the reached ones; 0 before the first)
+  uint64_t greedy_env_steps = 0;
+  double greedy_success = 0, greedy_hit_rate = 0, greedy_angle_accuracy = 0;
 };
 MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64_t restarts);
 

@@ -77,7 +77,7 @@ TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
   auto lines = Lines(dir / "metrics.csv");
   ASSERT_EQ(lines.size(), 21u);
   EXPECT_EQ(lines[0].substr(0, 60), "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,");
-  EXPECT_EQ(lines[20], "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,,,,,");
+  EXPECT_EQ(lines[20], "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,,,,,,,,,");
   EXPECT_EQ(Lines(dir / "eval.csv").size(), 1u + 6u);  // header + evaluations at rows 15..20
   auto jsonl = Lines(dir / "metrics.jsonl");
   ASSERT_EQ(jsonl.size(), 20u);
@@ -133,7 +133,13 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
   EXPECT_NE(text.find("detector Paddle->Ball against the env's labels: 4e-05 false positives per state, 0.0200 of 1600 "
                       "interactions missed (100000 states)"),
             std::string::npos) << text;
+  v.learner->sample.eval_env_steps(118'000);
+  v.learner->sample.eval_hit_rate(0.93);
+  v.learner->sample.eval_angle_accuracy(0.61);
   MetricsRow row = MakeRow(v, 1.0, 0.0, 0);
+  EXPECT_EQ(row.greedy_env_steps, 118'000u);
+  EXPECT_DOUBLE_EQ(row.greedy_hit_rate, 0.93);
+  EXPECT_DOUBLE_EQ(row.greedy_angle_accuracy, 0.61);
   EXPECT_EQ(row.detector.states, 100'000u);
   EXPECT_EQ(row.detector.missed, 32u);
 }

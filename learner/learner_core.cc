@@ -138,6 +138,7 @@ Status LearnerCore::OnCommand(const msg::ChainCommand& cmd, Outputs* out) {
   if (!same_job_restored) {
     job_start_updates_ = trainer(level)->updates();
     next_eval_at_ = next_retrain_at_ = 0;
+    ClearEval();  // the previous job's evaluation is not this job's
   }
   train_level_ = level;
   status_.updates(uint64_t(trainer(level)->updates() - job_start_updates_));
@@ -244,6 +245,16 @@ Result<bool> LearnerCore::TrainWork(SampleSource* source, uint64_t env_steps, Ou
     next_retrain_at_ = env_steps + uint64_t(options_.detector_retrain_steps);
   }
   return true;
+}
+
+void LearnerCore::ClearEval() {
+  status_.eval_env_steps(0);
+  status_.eval_episodes(0);
+  status_.eval_return_mean(0.0);
+  status_.eval_return_sd(0.0);
+  status_.eval_success(0.0);
+  status_.eval_angle_accuracy(0.0);
+  status_.eval_hit_rate(0.0);
 }
 
 Status LearnerCore::Evaluate(uint64_t env_steps) {

@@ -80,6 +80,7 @@ class LearnerCore {
   Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Status Evaluate(uint64_t env_steps);
+  void ClearEval();  // no evaluation reported (a new job starts)
   Status RetrainDetector(SampleSource* source, uint64_t env_steps, Outputs* out);
   void RecordLag(const SampleColumns& c, int level);
   DetectRoundOptions RoundOptions() const;

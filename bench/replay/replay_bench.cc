@@ -192,6 +192,77 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
   fs::remove_all(dir);
 }
 
+// the sampling configurations measured: name, strategy, hindsight
+constexpr std::tuple<const char*, uint8_t, bool> kSamplings[] = {{"uniform", msg::SAMPLE_UNIFORM, false},
+                                                                 {"prioritized", msg::SAMPLE_PRIORITIZED, false},
+                                                                 {"uniform_her", msg::SAMPLE_UNIFORM, true},
+                                                                 {"prioritized_her", msg::SAMPLE_PRIORITIZED, true}};
+
+// sampling over DDS from the filled shard
+Status DdsSamplingFigures(const Args& a, dds::Node& node, Figures* f) {
+  ReplayClientOptions co;
+  co.shards = 1;
+  co.timeout = 5s;
+  auto client = ReplayClient::Create(node, co);
+  if (!client.ok() || !(*client)->WaitForShards(20s)) return Errorf("sampling client did not match the shard");
+  rl::Batch batch;
+  for (auto [name, strategy, her] : kSamplings) {
+    auto& o = (*client)->options();
+    o.strategy = strategy;
+    o.her_strategy = her ? msg::HER_FUTURE : msg::HER_NONE;
+    o.her_ratio = her ? 0.8f : 0.0f;
+    o.goal_mask = her ? std::vector<float>{1.0f, 1.0f} : std::vector<float>{};
+    o.goal_epsilon = 0.5f;
+    std::vector<double> rates;
+    for (int r = 0; r < a.repeats; ++r) {
+      auto t0 = Clock::now();
+      uint64_t n = 0;
+      while (Since(t0) < a.seconds) {
+        COINS_RETURN_IF_ERROR((*client)->Sample(256, &batch));
+        // priorities move as a learner's would
+        if (strategy == msg::SAMPLE_PRIORITIZED) {
+          std::vector<float> p(batch.keys.size(), 0.5f + float(n % 7));
+          (*client)->UpdatePriorities(batch.keys, p);
+        }
+        n += 256;
+      }
+      rates.push_back(double(n) / Since(t0));
+    }
+    f->AddMedian(std::string("samples_per_s_") + name, rates, "transitions/s");
+  }
+  return Status::Ok();
+}
+
+// the sampler alone, in-process, on the same kind of data
+void SamplerFigures(const Args& a, const std::vector<std::unique_ptr<msg::TransitionBatch>>& batches, Figures* f) {
+  ReplayOptions o;
+  o.capacity = 1'000'000;
+  ResumeReport rep;
+  auto s = ReplayService::Open(0, o, &rep);
+  msg::TransitionBatch b;
+  for (uint64_t seq = 0; seq < 4000; ++seq) {
+    b = *batches[seq % batches.size()];
+    b.seq(seq);
+    b.payload_hash(PayloadHash(b));
+    (*s)->Insert(b, 1s);
+  }
+  msg::SampleReply reply;
+  for (auto [name, strategy, her] : kSamplings) {
+    std::vector<double> rates;
+    auto q = Request(strategy, her);
+    for (int r = 0; r < a.repeats; ++r) {
+      auto t0 = Clock::now();
+      uint64_t n = 0;
+      while (Since(t0) < a.seconds / 2) {
+        (*s)->Sample(q, &reply, 1s);
+        n += reply.n();
+      }
+      rates.push_back(double(n) / Since(t0));
+    }
+    f->AddMedian(std::string("sampler_per_s_") + name, rates, "transitions/s");
+  }
+}
+
 int Main(int argc, char** argv) {
   Args a;
   CLI::App app("Replay service figures: inserts, samples, snapshots, resume", "coins-bench-replay");
@@ -243,83 +314,14 @@ int Main(int argc, char** argv) {
   f.AddMedian("inserts_per_s_1_actor", one, "transitions/s");
   f.AddMedian("inserts_per_s_2_actors", two, "transitions/s");
 
-  // sampling over DDS from the filled shard
-  ReplayClientOptions co;
-  co.shards = 1;
-  co.timeout = 5s;
-  auto client = ReplayClient::Create(**node, co);
-  if (!client.ok() || !(*client)->WaitForShards(20s)) {
-    std::cerr << "coins-bench-replay: sampling client did not match the shard\n";
-    return 1;
-  }
-  rl::Batch batch;
-  for (auto [name, strategy, her] : {std::tuple{"uniform", msg::SAMPLE_UNIFORM, false},
-                                     std::tuple{"prioritized", msg::SAMPLE_PRIORITIZED, false},
-                                     std::tuple{"uniform_her", msg::SAMPLE_UNIFORM, true},
-                                     std::tuple{"prioritized_her", msg::SAMPLE_PRIORITIZED, true}}) {
-    auto& o = (*client)->options();
-    o.strategy = strategy;
-    o.her_strategy = her ? msg::HER_FUTURE : msg::HER_NONE;
-    o.her_ratio = her ? 0.8f : 0.0f;
-    o.goal_mask = her ? std::vector<float>{1.0f, 1.0f} : std::vector<float>{};
-    o.goal_epsilon = 0.5f;
-    std::vector<double> rates;
-    for (int r = 0; r < a.repeats; ++r) {
-      auto t0 = Clock::now();
-      uint64_t n = 0;
-      while (Since(t0) < a.seconds) {
-        Status s = (*client)->Sample(256, &batch);
-        if (!s.ok()) {
-          std::cerr << "coins-bench-replay: " << s.message() << "\n";
-          return 1;
-        }
-        // priorities move as a learner's would
-        if (strategy == msg::SAMPLE_PRIORITIZED) {
-          std::vector<float> p(batch.keys.size(), 0.5f + float(n % 7));
-          (*client)->UpdatePriorities(batch.keys, p);
-        }
-        n += 256;
-      }
-      rates.push_back(double(n) / Since(t0));
-    }
-    f.AddMedian(std::string("samples_per_s_") + name, rates, "transitions/s");
-  }
+  Status sampled = DdsSamplingFigures(a, **node, &f);
   StopAll(shard, 10s);
   fs::remove_all(dir);
-
-  // the sampler alone, in-process, on the same kind of data
-  {
-    ReplayOptions o;
-    o.capacity = 1'000'000;
-    ResumeReport rep;
-    auto s = ReplayService::Open(0, o, &rep);
-    msg::TransitionBatch b;
-    for (uint64_t seq = 0; seq < 4000; ++seq) {
-      b = *batches[seq % batches.size()];
-      b.seq(seq);
-      b.payload_hash(PayloadHash(b));
-      (*s)->Insert(b, 1s);
-    }
-    msg::SampleReply reply;
-    for (auto [name, strategy, her] : {std::tuple{"uniform", msg::SAMPLE_UNIFORM, false},
-                                       std::tuple{"prioritized", msg::SAMPLE_PRIORITIZED, false},
-                                       std::tuple{"uniform_her", msg::SAMPLE_UNIFORM, true},
-                                       std::tuple{"prioritized_her", msg::SAMPLE_PRIORITIZED, true}}) {
-      std::vector<double> rates;
-      auto q = Request(strategy, her);
-      for (int r = 0; r < a.repeats; ++r) {
-        auto t0 = Clock::now();
-        uint64_t n = 0;
-        while (Since(t0) < a.seconds / 2) {
-          (*s)->Sample(q, &reply, 1s);
-          n += reply.n();
-        }
-        rates.push_back(double(n) / Since(t0));
-      }
-      f.AddMedian(std::string("sampler_per_s_") + name, rates, "transitions/s");
-    }
+  if (!sampled.ok()) {
+    std::cerr << "coins-bench-replay: " << sampled.message() << "\n";
+    return 1;
   }
-
+  SamplerFigures(a, batches, &f);
   SnapshotFigures(a, batches, &f);
   f.Print(a.json);
   return 0;

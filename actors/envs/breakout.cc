@@ -195,13 +195,7 @@ void BreakoutEnv::Reset(uint64_t seed, std::span<float> state) {
   paddle_x_ = kPaddleX0;
   drops_ = 0;
   BuildBoard();
-  Serve();
-  bounces_ = hits_ = 0;
-  last_action_ = 0;
-  last_reward_ = last_done_ = 0.0f;
-  episode_over_ = false;
-  SyncAll();
-  GetState(state);
+  StartEpisode(state);
 }
 
 void BreakoutEnv::ResetNext(std::span<float> state) {
@@ -211,6 +205,10 @@ void BreakoutEnv::ResetNext(std::span<float> state) {
     drops_ = 0;
     BuildBoard();
   }
+  StartEpisode(state);
+}
+
+void BreakoutEnv::StartEpisode(std::span<float> state) {
   Serve();
   bounces_ = hits_ = 0;
   last_action_ = 0;

@@ -23,10 +23,10 @@
 
 #include "actors/actor.h"
 #include "bench/breakout_batches.h"
+#include "bench/replay_shard.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "common/cli_checks.h"
-#include "common/dds/domain_lease.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -281,27 +281,15 @@ int Main(int argc, char** argv) {
   Figures f;
 
   // one shard process on a private domain
-  auto lease = dds::DomainLease::Choose(int(a.domain));
-  if (!lease.ok()) {
-    std::cerr << "coins-bench-replay: " << lease.status().message() << "\n";
-    return 2;
+  int exit_code = 0;
+  auto process = bench::StartReplayShard("coins-bench-replay", int(a.domain),
+                                         {"replay.capacity=1000000", "replay.status_period_s=0.1"}, &exit_code);
+  if (!process.ok()) {
+    std::cerr << "coins-bench-replay: " << process.status().message() << "\n";
+    return exit_code;
   }
-  DdsOptions dds;
-  dds.domain = lease->domain();
-  auto dir = fs::temp_directory_path() / ("coins-bench-replay-" + std::to_string(getpid()));
-  fs::create_directories(dir);
-  std::vector<ChildProcess> shard;
-  auto child = ChildProcess::Spawn(
-      "replay-0",
-      {SelfDirectory() + "/coins-replay", "--id", "0", "--quiet-config", "--set", "run.shards=1", "--set",
-       "dds.domain=" + std::to_string(dds.domain), "--set", "replay.capacity=1000000", "--set",
-       "replay.status_period_s=0.1"},
-      (dir / "replay-0.log").string());
-  if (!child.ok()) {
-    std::cerr << "coins-bench-replay: " << child.status().message() << "\n";
-    return 1;
-  }
-  shard.push_back(std::move(*child));
+  const DdsOptions& dds = process->dds;
+  std::vector<ChildProcess>& shard = process->processes;
   auto node = dds::Node::Create(dds, "bench-replay");
   if (!node.ok()) return 1;
   auto collector = StatusCollector::Start(**node);
@@ -316,7 +304,7 @@ int Main(int argc, char** argv) {
 
   Status sampled = DdsSamplingFigures(a, **node, &f);
   StopAll(shard, 10s);
-  fs::remove_all(dir);
+  fs::remove_all(process->dir);
   if (!sampled.ok()) {
     std::cerr << "coins-bench-replay: " << sampled.message() << "\n";
     return 1;

@@ -9,11 +9,22 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
+
+#include "common/cli_checks.h"
 #include "common/dds/dds_options.h"
 #include "common/dds/domain_lease.h"
 #include "orchestrator/child_process.h"
 
 namespace coins::bench {
+
+// --domain: the DDS domain of the benchmark's processes (-1, the default: a free one of the lease range)
+inline void AddDomainOption(CLI::App& app, int64_t* domain) {
+  app.add_option("--domain", *domain,
+                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
+                 "common/dds/domain_lease.h)")
+      ->check(cli::Integer(0, 232));
+}
 
 struct ReplayShardProcess {
   dds::DomainLease lease;               // held while the shard runs

@@ -267,10 +267,7 @@ int Main(int argc, char** argv) {
   Args a;
   CLI::App app("Replay service figures: inserts, samples, snapshots, resume", "coins-bench-replay");
   app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
-  app.add_option("--domain", a.domain,
-                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
-                 "common/dds/domain_lease.h)")
-      ->check(cli::Integer(0, 232));
+  bench::AddDomainOption(app, &a.domain);
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_option("--snapshot-transitions", a.snapshot_transitions, "transitions in the snapshot figures")
       ->check(CLI::Range(int64_t(10000), int64_t(1) << 30));

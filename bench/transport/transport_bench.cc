@@ -58,10 +58,7 @@ int Main(int argc, char** argv) {
   CLI::App app("Actor step rate standalone and publishing to one replay shard over shared memory", "coins-bench-transport");
   app.add_option("--env", a.env, "environment");
   app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
-  app.add_option("--domain", a.domain,
-                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
-                 "common/dds/domain_lease.h)")
-      ->check(cli::Integer(0, 232));
+  bench::AddDomainOption(app, &a.domain);
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_flag("--json", a.json, "print one JSON object");
   app.add_option("--only", a.only, "measure only one kind (for profiling)")->check(CLI::IsMember({"standalone", "transport"}));

@@ -7,15 +7,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include "common/splitmix.h"
+
 namespace coins {
 
 namespace {
-uint64_t Mix(uint64_t a, uint64_t b) {
-  uint64_t z = a * 0x9e3779b97f4a7c15ULL + b + 0x632be59bd9b4e019ULL;
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
+// a seed derived from two words
+uint64_t Mix(uint64_t a, uint64_t b) { return SplitMix64Mix(a * kSplitMixGamma + b + 0x632be59bd9b4e019ULL); }
 }  // namespace
 
 struct Actor::EnvSlot {

@@ -1,7 +1,6 @@
 // coins-actor: runs environments with the skill hierarchy the orchestrator asks for (ChainCommand)
 // and the learner's weights, paced by the learner's updates, and streams their transitions to
 // replay shard (actor id mod run.shards) over DDS.
-#include <fstream>
 #include <optional>
 #include <thread>
 
@@ -13,6 +12,7 @@
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/files.h"
 #include "common/process.h"
 #include "common/run_options.h"
 #include "idl/controlPubSubTypes.h"
@@ -23,25 +23,22 @@
 namespace coins {
 namespace {
 
-void WriteStatsJson(const std::string& path, const msg::ActorStats& s) {
-  nlohmann::json j = {{"actor_id", s.actor_id()},
-                      {"env", s.env()},
-                      {"shard", s.shard()},
-                      {"steps", s.steps()},
-                      {"episodes", s.episodes()},
-                      {"batches", s.batches()},
-                      {"transitions_published", s.transitions_published()},
-                      {"payload_checksum", s.payload_checksum()},
-                      {"publish_retries", s.publish_retries()},
-                      {"weights_rejected", s.weights_rejected()},
-                      {"detector", {{"pair", s.detector_pair()},
-                                    {"states", s.detector_states()},
-                                    {"labelled", s.detector_truth()},
-                                    {"false_positives", s.detector_fp()},
-                                    {"missed", s.detector_fn()}}}};
-  std::string tmp = path + ".tmp";
-  std::ofstream(tmp) << j.dump() << "\n";
-  std::rename(tmp.c_str(), path.c_str());
+nlohmann::json StatsJson(const msg::ActorStats& s) {
+  return {{"actor_id", s.actor_id()},
+         {"env", s.env()},
+         {"shard", s.shard()},
+         {"steps", s.steps()},
+         {"episodes", s.episodes()},
+         {"batches", s.batches()},
+         {"transitions_published", s.transitions_published()},
+         {"payload_checksum", s.payload_checksum()},
+         {"publish_retries", s.publish_retries()},
+         {"weights_rejected", s.weights_rejected()},
+         {"detector", {{"pair", s.detector_pair()},
+                       {"states", s.detector_states()},
+                       {"labelled", s.detector_truth()},
+                       {"false_positives", s.detector_fp()},
+                       {"missed", s.detector_fn()}}}};
 }
 
 // the chain side of an actor: the newest command, the weights, the learner's progress; applied
@@ -134,6 +131,78 @@ class ChainFollower {
   uint64_t updates_ = 0;
 };
 
+// the sink of the actor's batches. After a stop request the actor stops stepping but still
+// publishes its partial batches; the sink gives up waiting for the shard only once
+// flush_timeout_s has passed. The sink has a participant of its own, which it replaces when the
+// stream stalls (actors/batch_sink.h).
+Result<std::unique_ptr<DdsBatchSink>> OpenSink(const DdsOptions& dds, const std::string& name, int64_t shard,
+                                               double flush_timeout_s) {
+  const auto flush_timeout = std::chrono::duration<double>(flush_timeout_s);
+  auto stopping = [flush_timeout, stop_seen = std::optional<std::chrono::steady_clock::time_point>()]() mutable {
+    if (!StopRequested()) return false;
+    if (!stop_seen) stop_seen = std::chrono::steady_clock::now();
+    return std::chrono::steady_clock::now() - *stop_seen > flush_timeout;
+  };
+  auto sink = DdsBatchSink::Create(dds, name + ".transitions", shard, stopping);
+  if (!sink.ok()) return sink.status().WithContext("cannot open DDS topics");
+  return sink;
+}
+
+// ActorStats: filled from the actor's counters with the step rate since the last fill
+class StatsReporter {
+ public:
+  StatsReporter(int64_t id, const std::string& env, int64_t shard, const DdsBatchSink& sink, const ChainFollower* chain)
+      : sink_(sink), chain_(chain) {
+    stats_.schema_version(msg::STATUS_SCHEMA);
+    stats_.actor_id(static_cast<uint32_t>(id));
+    stats_.env(env);
+    stats_.shard(static_cast<uint32_t>(shard));
+  }
+  const msg::ActorStats& Fill(const ActorCounters& c) {
+    auto now = std::chrono::steady_clock::now();
+    double dt = std::chrono::duration<double>(now - last_time_).count();
+    stats_.steps_per_s(dt > 0 ? (c.steps - last_steps_) / dt : 0.0);
+    last_time_ = now;
+    last_steps_ = c.steps;
+    stats_.steps(c.steps);
+    stats_.episodes(c.episodes);
+    stats_.batches(c.batches);
+    stats_.transitions_published(c.transitions_published);
+    stats_.payload_checksum(c.payload_checksum);
+    stats_.publish_retries(sink_.retries());
+    stats_.mean_episode_return(c.returns_counted ? c.return_sum / c.returns_counted : 0.0);
+    if (chain_) chain_->Fill(&stats_, c);
+    return stats_;
+  }
+
+ private:
+  msg::ActorStats stats_;
+  const DdsBatchSink& sink_;
+  const ChainFollower* chain_;
+  std::chrono::steady_clock::time_point last_time_ = std::chrono::steady_clock::now();
+  uint64_t last_steps_ = 0;
+};
+
+// the final stats: published once the watchers had a moment to match, written to --stats-out,
+// and logged
+void ReportFinalStats(dds::Writer<msg::ActorStats>& writer, const msg::ActorStats& stats,
+                      const std::string& stats_out) {
+  // a short run can end before anyone watching (coins run, monitor) has discovered this actor:
+  // give them a moment to match so the final stats are seen
+  for (int i = 0; i < 100 && writer.matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  writer.Write(stats);
+  writer.WaitAcked(std::chrono::seconds(2));
+  if (!stats_out.empty()) {
+    if (Status s = WriteFileAtomic(stats_out, StatsJson(stats).dump() + "\n"); !s.ok()) spdlog::warn("{}", s.message());
+  }
+  spdlog::info("done: {} steps, {} episodes, {} batches, {} transitions published", stats.steps(), stats.episodes(),
+               stats.batches(), stats.transitions_published());
+  if (stats.detector_states())
+    spdlog::info("detector {} against the env's labels: {} states, {} labelled, {} false positives, {} missed",
+                 stats.detector_pair(), stats.detector_states(), stats.detector_truth(), stats.detector_fp(),
+                 stats.detector_fn());
+}
+
 }  // namespace
 
 int ActorMain(int argc, char** argv) {
@@ -152,77 +221,33 @@ int ActorMain(int argc, char** argv) {
   int64_t shard = id % run.shards;
   uint64_t steps = options.steps ? options.steps : (run.steps ? (run.steps + run.actors - 1) / run.actors : 0);
 
-  auto node = dds::Node::Create(main.dds(), main.name());
-  if (!node.ok()) {
-    spdlog::error("{}", node.status().message());
-    return 1;
-  }
-  auto stats_writer = (*node)->MakeWriter<msg::ActorStatsPubSubType>(dds::kActorStatsTopic, dds::StatusWriterQos());
-  auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "actor");
-  // after a stop request the actor stops stepping but still publishes its partial batches;
-  // the sink gives up waiting for the shard only once flush_timeout_s has passed. The sink has
-  // a participant of its own, which it replaces when the stream stalls (actors/batch_sink.h).
-  std::optional<std::chrono::steady_clock::time_point> stop_seen;
-  auto flush_timeout = std::chrono::duration<double>(options.flush_timeout_s);
-  auto sink_or = DdsBatchSink::Create(main.dds(), main.name() + ".transitions", shard, [&] {
-    if (!StopRequested()) return false;
-    if (!stop_seen) stop_seen = std::chrono::steady_clock::now();
-    return std::chrono::steady_clock::now() - *stop_seen > flush_timeout;
-  });
-  if (!sink_or.ok() || !stats_writer.ok() || !heartbeat.ok()) {
-    spdlog::error("cannot open DDS topics: {}{}{}", sink_or.status().message(), stats_writer.status().message(),
-                  heartbeat.status().message());
-    return 1;
-  }
-  DdsBatchSink& sink = **sink_or;
-  auto actor = Actor::Create(run.env, options, static_cast<uint32_t>(id), static_cast<uint64_t>(run.seed), &sink);
-  if (!actor.ok()) {
-    spdlog::error("{}", actor.status().message());
-    return 2;
-  }
+  auto dds = main.OpenNode("actor");
+  if (!dds.ok()) return ExitWithError(dds.status(), 1);
+  auto stats_writer = dds->node->MakeWriter<msg::ActorStatsPubSubType>(dds::kActorStatsTopic, dds::StatusWriterQos());
+  if (!stats_writer.ok()) return ExitWithError(stats_writer.status().WithContext("cannot open DDS topics"), 1);
+  auto sink = OpenSink(main.dds(), main.name(), shard, options.flush_timeout_s);
+  if (!sink.ok()) return ExitWithError(sink.status(), 1);
+  auto actor = Actor::Create(run.env, options, static_cast<uint32_t>(id), static_cast<uint64_t>(run.seed), sink->get());
+  if (!actor.ok()) return ExitWithError(actor.status(), 2);
   std::unique_ptr<ChainFollower> chain;
   if (options.follow_chain) {
-    chain = std::make_unique<ChainFollower>(**node, (*actor)->spec(), id, run.actors);
-    if (!chain->status().ok()) {
-      spdlog::error("cannot open DDS topics: {}", chain->status().message());
-      return 1;
-    }
+    chain = std::make_unique<ChainFollower>(*dds->node, (*actor)->spec(), id, run.actors);
+    if (!chain->status().ok()) return ExitWithError(chain->status().WithContext("cannot open DDS topics"), 1);
   }
   spdlog::info("env {} (state {} floats), {} envs, publishing to shard {}, steps {}{}", run.env,
                (*actor)->spec().state_dim(), options.envs, shard, steps ? std::to_string(steps) : "unbounded",
                chain ? ", following the chain" : ", random actions");
-  heartbeat->Publish("running");
+  dds::Heartbeat& heartbeat = dds->heartbeat;
+  heartbeat.Publish("running");
 
   // status: ActorStats with the step rate over the last period
-  msg::ActorStats stats;
-  stats.schema_version(msg::STATUS_SCHEMA);
-  stats.actor_id(static_cast<uint32_t>(id));
-  stats.env(run.env);
-  stats.shard(static_cast<uint32_t>(shard));
-  auto last_time = std::chrono::steady_clock::now();
-  uint64_t last_steps = 0;
-  auto fill_stats = [&](const ActorCounters& c) {
-    auto now = std::chrono::steady_clock::now();
-    double dt = std::chrono::duration<double>(now - last_time).count();
-    stats.steps_per_s(dt > 0 ? (c.steps - last_steps) / dt : 0.0);
-    last_time = now;
-    last_steps = c.steps;
-    stats.steps(c.steps);
-    stats.episodes(c.episodes);
-    stats.batches(c.batches);
-    stats.transitions_published(c.transitions_published);
-    stats.payload_checksum(c.payload_checksum);
-    stats.publish_retries(sink.retries());
-    stats.mean_episode_return(c.returns_counted ? c.return_sum / c.returns_counted : 0.0);
-    if (chain) chain->Fill(&stats, c);
-  };
+  StatsReporter stats(id, run.env, shard, **sink, chain.get());
   Actor::Hooks hooks;
   hooks.stop = [] { return StopRequested(); };
   hooks.period = std::chrono::milliseconds(static_cast<int64_t>(options.status_period_s * 1000));
   hooks.on_period = [&](const ActorCounters& c) {
-    fill_stats(c);
-    stats_writer->Write(stats);
-    heartbeat->Publish("running");
+    stats_writer->Write(stats.Fill(c));
+    heartbeat.Publish("running");
   };
   if (chain) {
     hooks.poll = [&](Actor& a) { chain->Poll(a); };
@@ -230,22 +255,10 @@ int ActorMain(int argc, char** argv) {
   }
   (*actor)->Run(steps, hooks);
 
-  heartbeat->Publish("stopping");
-  bool acked = sink.Flush(std::chrono::milliseconds(static_cast<int64_t>(options.flush_timeout_s * 1000)));
+  heartbeat.Publish("stopping");
+  bool acked = (*sink)->Flush(std::chrono::milliseconds(static_cast<int64_t>(options.flush_timeout_s * 1000)));
   if (!acked) spdlog::warn("not every batch was acknowledged within {} s", options.flush_timeout_s);
-  fill_stats((*actor)->counters());
-  // a short run can end before anyone watching (coins run, monitor) has discovered this actor:
-  // give them a moment to match so the final stats are seen
-  for (int i = 0; i < 100 && stats_writer->matched() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  stats_writer->Write(stats);
-  stats_writer->WaitAcked(std::chrono::seconds(2));
-  if (!stats_out.empty()) WriteStatsJson(stats_out, stats);
-  spdlog::info("done: {} steps, {} episodes, {} batches, {} transitions published", stats.steps(), stats.episodes(),
-               stats.batches(), stats.transitions_published());
-  if (stats.detector_states())
-    spdlog::info("detector {} against the env's labels: {} states, {} labelled, {} false positives, {} missed",
-                 stats.detector_pair(), stats.detector_states(), stats.detector_truth(), stats.detector_fp(),
-                 stats.detector_fn());
+  ReportFinalStats(*stats_writer, stats.Fill((*actor)->counters()), stats_out);
   return 0;
 }
 

@@ -8,6 +8,8 @@
 #include <random>
 #include <sstream>
 
+#include "common/splitmix.h"
+
 namespace coins::detector {
 
 Status CollectOptions::Validate() const {
@@ -120,7 +122,7 @@ Result<TransitionSet> CollectTransitions(envs::Env& env, const CollectOptions& o
   std::vector<float> file_actions;
   const bool random = options.policy == "random";
   const bool goals = options.policy == "goals";
-  GoalPolicy goal_policy(spec, options.goal_timeout, options.seed ^ 0x9e3779b97f4a7c15ULL);
+  GoalPolicy goal_policy(spec, options.goal_timeout, options.seed ^ kSplitMixGamma);
   if (goals && !goal_policy.supported()) {
     return Errorf("--policy goals: env '{}' has no Paddle or Gripper factor", spec.name);
   }

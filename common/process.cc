@@ -36,6 +36,11 @@ bool SleepUnlessStopped(std::chrono::milliseconds d) {
   return true;
 }
 
+int ExitWithError(const Status& error, int code) {
+  spdlog::error("{}", error.message());
+  return code;
+}
+
 void SetupLogging(const std::string& name, const std::string& level) {
   auto logger = spdlog::stderr_color_mt(name);
   logger->set_pattern("%H:%M:%S.%e %n %^%l%$: %v");
@@ -77,6 +82,14 @@ int ProcessMain::Parse(int argc, char** argv) {
   if (!quiet_config_) spdlog::info("effective config:\n{}", loader.Dump());
   InstallStopSignals();
   return -1;
+}
+
+Result<ProcessNode> ProcessMain::OpenNode(const std::string& role) {
+  auto node = dds::Node::Create(dds_, name_);
+  if (!node.ok()) return node.status();
+  auto heartbeat = dds::Heartbeat::Create(**node, name_, role);
+  if (!heartbeat.ok()) return heartbeat.status().WithContext("cannot open DDS topics");
+  return ProcessNode{std::move(*node), std::move(*heartbeat)};
 }
 
 }  // namespace coins

@@ -6,6 +6,7 @@
 //   main.AddSection(ConfigSection::Of("actor", actor_options));
 //   main.app().add_option("--id", id, "...");
 //   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;   // --help, bad flags, bad config
+//   auto dds = main.OpenNode("actor");                           // participant + heartbeat
 //   ... run until StopRequested() ...
 #pragma once
 
@@ -19,6 +20,8 @@
 
 #include "common/config/config.h"
 #include "common/dds/dds_options.h"
+#include "common/dds/heartbeat.h"
+#include "common/dds/node.h"
 
 namespace coins {
 
@@ -29,8 +32,19 @@ void RequestStop();
 // sleeps up to d, returning early (true) when a stop is requested
 bool SleepUnlessStopped(std::chrono::milliseconds d);
 
+// how a process main reports a failure after Parse: logs the error, returns the exit code
+// (1: a runtime failure such as DDS; 2: bad input such as an unknown env or a bad checkpoint)
+int ExitWithError(const Status& error, int code);
+
 // sets up the default spdlog logger with the process name; level: trace..off
 void SetupLogging(const std::string& name, const std::string& level = "info");
+
+// The DDS side every process binary opens: its participant and the heartbeat of its role. The
+// heartbeat is declared last, so it goes before the node it writes through.
+struct ProcessNode {
+  std::unique_ptr<dds::Node> node;
+  dds::Heartbeat heartbeat;
+};
 
 class ProcessMain {
  public:
@@ -43,6 +57,9 @@ class ProcessMain {
   DdsOptions& dds() { return dds_; }
   // the process's name on DDS and in logs (e.g. "actor-3")
   std::string& name() { return name_; }
+  // after Parse: the participant (named name(), with the dds section's transports) and the
+  // heartbeat of `role` ("actor", "replay", ...); the error names what could not be opened
+  Result<ProcessNode> OpenNode(const std::string& role);
 
  private:
   std::string binary_;

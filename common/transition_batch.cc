@@ -4,17 +4,12 @@
 #include <cassert>
 #include <cstring>
 
+#include "common/splitmix.h"
+
 namespace coins {
 
 namespace {
 constexpr uint64_t kPrime = 0x100000001b3ULL;
-
-// a bijective 64-bit mixer (xor-shift / multiply), every input bit reaching every output bit
-inline uint64_t Mix64(uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
 
 template <typename T>
 uint64_t HashVec(const std::vector<T>& v, uint64_t h) {
@@ -37,7 +32,7 @@ uint64_t HashBytes(const void* data, size_t n, uint64_t seed) {
   const auto* p = static_cast<const uint8_t*>(data);
   uint64_t s1[kLanes], s2[kLanes];
   for (int l = 0; l < kLanes; ++l) {
-    s1[l] = seed ^ (0x9e3779b97f4a7c15ULL * (l + 1));
+    s1[l] = seed ^ (kSplitMixGamma * (l + 1));
     s2[l] = 0;
   }
   size_t blocks = n / (4 * kLanes);
@@ -53,11 +48,11 @@ uint64_t HashBytes(const void* data, size_t n, uint64_t seed) {
   // every lane shares (e.g. the seed's top bit) cancel out
   uint64_t h = 0xcbf29ce484222325ULL;
   for (int l = 0; l < kLanes; ++l) {
-    h = Mix64(h ^ s1[l]);
-    h = Mix64(h ^ s2[l]);
+    h = SplitMix64Mix(h ^ s1[l]);
+    h = SplitMix64Mix(h ^ s2[l]);
   }
   for (size_t i = blocks * 4 * kLanes; i < n; ++i) h = (h ^ p[i]) * kPrime;
-  return Mix64(h ^ n);
+  return SplitMix64Mix(h ^ n);
 }
 
 uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim) {

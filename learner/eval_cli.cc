@@ -77,6 +77,86 @@ int FindLevel(const LearnerCore& core, const std::string& skill, std::string* na
   return -1;
 }
 
+// what an evaluation records: rollout lines (--out, written to a temporary file renamed over it
+// at the end) and GIF frames (--gif)
+class EvalRecorder {
+ public:
+  EvalRecorder(const EvalFlags& f, envs::Env& env) : f_(f), env_(env) {}
+  Status Open() {
+    if (!f_.out.empty()) {
+      out_.reset(std::fopen((f_.out + ".tmp").c_str(), "w"));
+      if (!out_) return Errorf("--out {}: cannot open for writing", f_.out);
+    }
+    if (!f_.gif.empty()) {
+      auto r = envs::MakeRenderer(env_, 4, 320, 240);
+      if (!r.ok()) return r.status().WithContext("--gif");
+      renderer_ = std::move(*r);
+    }
+    return Status::Ok();
+  }
+  void OnStep(const EvalStep& s) {
+    if (out_) {
+      line_.clear();
+      envs::AppendRolloutLine(env_.spec(), t_, s.episode, s.state, s.action, s.next, *s.result, &line_);
+      if (std::fwrite(line_.data(), 1, line_.size(), out_.get()) != line_.size())
+        error_ = Errorf("--out {}: write failed", f_.out);
+    }
+    if (renderer_ && t_ < f_.gif_steps) {
+      auto img = renderer_->Render(env_);
+      if (img.ok()) frames_.push_back(std::move(*img));
+    }
+    ++t_;
+  }
+  // the first write error, else renames the rollout into place and writes the GIF
+  Status Finish() {
+    COINS_RETURN_IF_ERROR(error_);
+    if (out_) {
+      if (std::fflush(out_.get()) != 0) return Errorf("--out {}: write failed", f_.out);
+      out_.reset();
+      std::rename((f_.out + ".tmp").c_str(), f_.out.c_str());
+    }
+    if (renderer_) COINS_RETURN_IF_ERROR(envs::WriteGif(f_.gif, frames_, 3));
+    return Status::Ok();
+  }
+
+ private:
+  const EvalFlags& f_;
+  envs::Env& env_;
+  std::unique_ptr<FILE, int (*)(FILE*)> out_{nullptr, &std::fclose};
+  std::unique_ptr<envs::FrameRenderer> renderer_;
+  std::vector<envs::Image> frames_;
+  int64_t t_ = 0;
+  std::string line_;
+  Status error_;
+};
+
+// the result as one JSON line (--json) or as text
+void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::string& env, int level,
+               const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
+  nlohmann::json j = {{"run_dir", f.run_dir}, {"checkpoint", checkpoint},     {"env", env},
+                      {"level", level},       {"policy", spec.name},      {"episodes", r.returns.size()},
+                      {"return_mean", r.return_mean}, {"return_sd", r.return_sd}, {"returns", r.returns},
+                      {"goals", r.goals_ended}, {"success", r.success}, {"steps", r.steps}};
+  j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
+  j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
+  if (f.json) {
+    std::cout << j.dump() << "\n";
+    return;
+  }
+  std::cout << fmt::format("{} on {} ({}):", spec.name, env, checkpoint) << "\n";
+  if (spec.is_task())
+    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes", r.return_mean, r.return_sd,
+                             r.returns.size())
+              << "\n";
+  std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r.success,
+                           r.goals_reached, r.goals_ended, r.steps)
+            << "\n";
+  if (skill.require_interaction)
+    std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
+                             100.0 * r.hit_rate, 100.0 * r.accuracy)
+              << "\n";
+}
+
 }  // namespace
 
 Status RunEval(const EvalFlags& f) {
@@ -101,69 +181,16 @@ Status RunEval(const EvalFlags& f) {
   auto models = core.Models(level);
   if (!models.ok()) return models.status();
 
-  // recorders: rollout lines and GIF frames
-  std::unique_ptr<FILE, int (*)(FILE*)> out(nullptr, &std::fclose);
-  if (!f.out.empty()) {
-    out.reset(std::fopen((f.out + ".tmp").c_str(), "w"));
-    if (!out) return Errorf("--out {}: cannot open for writing", f.out);
-  }
-  std::unique_ptr<envs::FrameRenderer> renderer;
-  std::vector<envs::Image> frames;
-  if (!f.gif.empty()) {
-    auto r = envs::MakeRenderer(**env, 4, 320, 240);
-    if (!r.ok()) return r.status().WithContext("--gif");
-    renderer = std::move(*r);
-  }
-  int64_t t = 0;
-  std::string line;
-  Status step_error;
-  auto on_step = [&](const EvalStep& s) {
-    if (out) {
-      line.clear();
-      envs::AppendRolloutLine((*env)->spec(), t, s.episode, s.state, s.action, s.next, *s.result, &line);
-      if (std::fwrite(line.data(), 1, line.size(), out.get()) != line.size()) step_error = Errorf("--out {}: write failed", f.out);
-    }
-    if (renderer && t < f.gif_steps) {
-      auto img = renderer->Render(**env);
-      if (img.ok()) frames.push_back(std::move(*img));
-    }
-    ++t;
-  };
+  EvalRecorder recorder(f, **env);
+  COINS_RETURN_IF_ERROR(recorder.Open());
   EvalOptions eo{f.episodes, f.max_steps, f.seed};
-  auto r = Evaluate(**env, **models, level, eo, on_step);
+  auto r = Evaluate(**env, **models, level, eo, [&](const EvalStep& s) { recorder.OnStep(s); });
   if (!r.ok()) return r.status();
-  COINS_RETURN_IF_ERROR(step_error);
-  if (out) {
-    if (std::fflush(out.get()) != 0) return Errorf("--out {}: write failed", f.out);
-    out.reset();
-    std::rename((f.out + ".tmp").c_str(), f.out.c_str());
-  }
-  if (renderer) COINS_RETURN_IF_ERROR(envs::WriteGif(f.gif, frames, 3));
+  COINS_RETURN_IF_ERROR(recorder.Finish());
 
   const policy::LevelSpec& spec = core.trainer(level)->spec();
   const policy::LevelSpec& skill = spec.is_task() ? core.trainer(level - 1)->spec() : spec;
-  nlohmann::json j = {{"run_dir", f.run_dir}, {"checkpoint", *ckpt},     {"env", (*env)->spec().name},
-                      {"level", level},       {"policy", spec.name},      {"episodes", r->returns.size()},
-                      {"return_mean", r->return_mean}, {"return_sd", r->return_sd}, {"returns", r->returns},
-                      {"goals", r->goals_ended}, {"success", r->success}, {"steps", r->steps}};
-  j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r->accuracy) : nlohmann::json(nullptr);
-  j["hit_rate"] = skill.require_interaction ? nlohmann::json(r->hit_rate) : nlohmann::json(nullptr);
-  if (f.json) {
-    std::cout << j.dump() << "\n";
-  } else {
-    std::cout << fmt::format("{} on {} ({}):", spec.name, (*env)->spec().name, *ckpt) << "\n";
-    if (spec.is_task())
-      std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes", r->return_mean, r->return_sd,
-                               r->returns.size())
-                << "\n";
-    std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r->success,
-                             r->goals_reached, r->goals_ended, r->steps)
-              << "\n";
-    if (skill.require_interaction)
-      std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
-                               100.0 * r->hit_rate, 100.0 * r->accuracy)
-                << "\n";
-  }
+  PrintEval(f, *ckpt, (*env)->spec().name, level, spec, skill, *r);
   return Status::Ok();
 }
 

@@ -241,44 +241,29 @@ int LearnerMain(int argc, char** argv) {
   if (main.name() == "coins-learner") main.name() = "learner";
 
   auto env = envs::MakeEnv(run.env);
-  if (!env.ok()) {
-    spdlog::error("run.env: {}", env.status().message());
-    return 2;
-  }
+  if (!env.ok()) return ExitWithError(env.status().WithContext("run.env"), 2);
   auto core = std::make_unique<LearnerCore>((*env)->spec(), options, uint64_t(run.seed));
   const int64_t epoch = resume_epoch >= 0 ? resume_epoch : NewestCheckpoint(run);
   if (epoch >= 0) {
-    if (Status s = core->LoadCheckpoint(CheckpointDir(run, uint64_t(epoch))); !s.ok()) {
-      spdlog::error("resume: {}", s.message());
-      return 2;
-    }
+    if (Status s = core->LoadCheckpoint(CheckpointDir(run, uint64_t(epoch))); !s.ok())
+      return ExitWithError(s.WithContext("resume"), 2);
     spdlog::info("resumed from checkpoint epoch {}", epoch);
   }
 
-  auto node = dds::Node::Create(main.dds(), main.name());
-  if (!node.ok()) {
-    spdlog::error("{}", node.status().message());
-    return 1;
-  }
-  auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "learner");
-  auto topics = OpenTopics(**node);
+  auto dds = main.OpenNode("learner");
+  if (!dds.ok()) return ExitWithError(dds.status(), 1);
+  auto topics = OpenTopics(*dds->node);
+  if (!topics.ok()) return ExitWithError(topics.status().WithContext("cannot open DDS topics"), 1);
   ReplayClientOptions co;
   co.shards = int(run.shards);
   co.name = main.name();
-  auto client = ReplayClient::Create(**node, co);
-  if (!heartbeat.ok() || !topics.ok() || !client.ok()) {
-    spdlog::error("cannot open DDS topics: {}{}{}", heartbeat.status().message(), topics.status().message(),
-                  client.status().message());
-    return 1;
-  }
+  auto client = ReplayClient::Create(*dds->node, co);
+  if (!client.ok()) return ExitWithError(client.status().WithContext("cannot open DDS topics"), 1);
   auto prefetch = PrefetchingSource::Create(client->get());
-  if (!prefetch.ok()) {
-    spdlog::error("{}", prefetch.status().message());
-    return 1;
-  }
-  heartbeat->Publish("running");
+  if (!prefetch.ok()) return ExitWithError(prefetch.status(), 1);
+  dds->heartbeat.Publish("running");
   LearnerProcess process(run, options, std::move(*topics), std::move(core), prefetch->get());
-  return process.Run(*heartbeat);
+  return process.Run(dds->heartbeat);
 }
 
 }  // namespace

@@ -42,32 +42,17 @@ int OrchestratorMain(int argc, char** argv) {
   if (main.name() == "coins-orchestrator") main.name() = "orchestrator";
 
   auto env = envs::MakeEnv(config.run.env);
-  if (!env.ok()) {
-    spdlog::error("run.env: {}", env.status().message());
-    return 2;
-  }
+  if (!env.ok()) return ExitWithError(env.status().WithContext("run.env"), 2);
   chain::ChainStore store(std::filesystem::path(config.run.dir) / "chain", ChainFingerprint(config.Values()));
   auto machine = OpenChain(store, (*env)->spec(), config.orchestrator, resume_epoch);
-  if (!machine.ok()) {
-    spdlog::error("{}", machine.status().message());
-    return 1;
-  }
+  if (!machine.ok()) return ExitWithError(machine.status(), 1);
 
-  auto node = dds::Node::Create(main.dds(), main.name());
-  if (!node.ok()) {
-    spdlog::error("{}", node.status().message());
-    return 1;
-  }
-  auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "orchestrator");
-  auto collector = StatusCollector::Start(**node);
-  Result<ChainAdapter::Io> io = heartbeat.ok() && collector.ok()
-                                    ? OpenTopics(**node, &*heartbeat, collector->get())
-                                    : Result<ChainAdapter::Io>(Errorf("{}{}", heartbeat.status().message(),
-                                                                      collector.status().message()));
-  if (!io.ok()) {
-    spdlog::error("cannot open DDS topics: {}", io.status().message());
-    return 1;
-  }
+  auto dds = main.OpenNode("orchestrator");
+  if (!dds.ok()) return ExitWithError(dds.status(), 1);
+  auto collector = StatusCollector::Start(*dds->node);
+  if (!collector.ok()) return ExitWithError(collector.status().WithContext("cannot open DDS topics"), 1);
+  auto io = OpenTopics(*dds->node, &dds->heartbeat, collector->get());
+  if (!io.ok()) return ExitWithError(io.status().WithContext("cannot open DDS topics"), 1);
   config.dds = main.dds();
   ChainAdapter adapter(std::move(*machine), std::move(store), *io, config);
   return adapter.Run();

@@ -5,7 +5,6 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
-#include <fstream>
 #include <set>
 #include <thread>
 
@@ -16,6 +15,7 @@
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/files.h"
 #include "common/process.h"
 #include "common/run_options.h"
 #include "idl/controlPubSubTypes.h"
@@ -66,7 +66,7 @@ void FillStats(const ReplayService::View& v, double insert_rate, msg::ReplayStat
 }
 
 // the final stats; `v` adds what ReplayStats does not carry (sequence jumps, held batches)
-void WriteStatsJson(const std::string& path, const msg::ReplayStats& s, const ReplayService::View& v) {
+nlohmann::json StatsJson(const msg::ReplayStats& s, const ReplayService::View& v) {
   nlohmann::json actors = nlohmann::json::array();
   for (const auto& a : s.actors()) {
     auto it = v.actors.find(a.actor_id());
@@ -75,17 +75,14 @@ void WriteStatsJson(const std::string& path, const msg::ReplayStats& s, const Re
                       {"stored_transitions", a.stored_transitions()}, {"stored_checksum", a.stored_checksum()},
                       {"seq_jumps", it != v.actors.end() ? it->second.seq_jumps : 0}});
   }
-  nlohmann::json j = {{"shard_id", s.shard_id()}, {"size", s.size()}, {"capacity", s.capacity()},
-                      {"inserted_transitions", s.inserted_transitions()}, {"inserted_batches", s.inserted_batches()},
-                      {"duplicates", s.duplicates()}, {"gaps", s.gaps()}, {"rejected", s.rejected()},
-                      {"samples_served", s.samples_served()}, {"bad_requests", s.bad_requests()},
-                      {"rate_limited", s.rate_limited()}, {"snapshots_written", s.snapshots_written()},
-                      {"snapshot_failures", s.snapshot_failures()},
-                      {"restored_transitions", s.restored_transitions()}, {"corrupt_snapshots", s.corrupt_snapshots()},
-                      {"seq_jumps", v.seq_jumps}, {"held_batches", v.held}, {"actors", actors}};
-  std::string tmp = path + ".tmp";
-  std::ofstream(tmp) << j.dump() << "\n";
-  std::rename(tmp.c_str(), path.c_str());
+  return {{"shard_id", s.shard_id()}, {"size", s.size()}, {"capacity", s.capacity()},
+         {"inserted_transitions", s.inserted_transitions()}, {"inserted_batches", s.inserted_batches()},
+         {"duplicates", s.duplicates()}, {"gaps", s.gaps()}, {"rejected", s.rejected()},
+         {"samples_served", s.samples_served()}, {"bad_requests", s.bad_requests()},
+         {"rate_limited", s.rate_limited()}, {"snapshots_written", s.snapshots_written()},
+         {"snapshot_failures", s.snapshot_failures()},
+         {"restored_transitions", s.restored_transitions()}, {"corrupt_snapshots", s.corrupt_snapshots()},
+         {"seq_jumps", v.seq_jumps}, {"held_batches", v.held}, {"actors", actors}};
 }
 
 // snapshot requests (command ids; 0 = periodic) handed to the snapshot thread
@@ -123,6 +120,230 @@ struct Joiner {
   }
 };
 
+// the shard's DDS topics
+struct Topics {
+  dds::Reader<msg::TransitionBatch> batches;
+  dds::Reader<msg::SampleRequest> requests;
+  dds::Writer<msg::SampleReply> replies;
+  dds::Reader<msg::PriorityUpdate> updates;
+  dds::Reader<msg::Control> control;
+  dds::Writer<msg::ReplayStats> stats;
+};
+
+Result<Topics> OpenTopics(dds::Node& node, const DdsOptions& dds, int64_t id) {
+  auto batches = node.MakeReader<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionReaderQos(dds),
+                                                                 dds::ShardPartition(id));
+  auto requests = node.MakeReader<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingReaderQos(64));
+  auto replies = node.MakeWriter<msg::SampleReplyPubSubType>(dds::kSampleReplyTopic, dds::SamplingWriterQos(8));
+  auto updates = node.MakeReader<msg::PriorityUpdatePubSubType>(dds::kPriorityUpdateTopic, dds::SamplingReaderQos(64));
+  auto control = node.MakeReader<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandReaderQos());
+  auto stats = node.MakeWriter<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusWriterQos());
+  for (const Status* s :
+       {&batches.status(), &requests.status(), &replies.status(), &updates.status(), &control.status(), &stats.status()})
+    if (!s->ok()) return s->WithContext("cannot open DDS topics");
+  return Topics{*batches, *requests, *replies, *updates, *control, *stats};
+}
+
+// opens the shard's store, resuming a snapshot (--resume-epoch N: the one of checkpoint epoch
+// N, else the newest), and logs what the resume found
+Result<std::unique_ptr<ReplayService>> OpenService(int64_t id, const ReplayOptions& options, int64_t resume_epoch,
+                                                   ResumeReport* resume) {
+  const uint64_t resume_command = resume_epoch >= 0 ? CheckpointCommandId(uint64_t(resume_epoch)) : 0;
+  auto service = ReplayService::Open(uint32_t(id), options, resume, resume_command);
+  for (const auto& c : resume->corrupt) spdlog::warn("skipped snapshot: {}", c);
+  if (!service.ok()) return service;
+  if (resume_command != 0 && resume->snapshot.empty())
+    spdlog::warn("no snapshot of epoch {} in '{}' ({} of other commands): starting empty (a shard that held "
+                 "nothing at the cut writes none)", resume_epoch, options.snapshot_dir, resume->other_command.size());
+  if (!resume->snapshot.empty()) {
+    spdlog::info("resumed {} transitions from {} in {:.3f} s", resume->transitions, resume->snapshot, resume->seconds);
+    for (const auto& c : resume->config_changes)
+      spdlog::warn("config differs from the snapshot's: {} ({} wins{})", c, resume->new_config_won ? "new" : "snapshot",
+                   resume->new_config_won ? "" : "; pass --new-config to use the new one");
+  }
+  return service;
+}
+
+// one running shard: the ingest, sampling and snapshot threads and the status loop of the
+// main thread, over the service and the topics
+class ShardProcess {
+ public:
+  ShardProcess(int64_t id, std::string name, const ReplayOptions& options, ReplayService& service, dds::Node& node,
+               Topics& topics)
+      : id_(id), name_(std::move(name)), options_(options), service_(service), node_(node), t_(topics) {}
+
+  // runs until a stop is requested, then drains, stops the threads and writes the final snapshot
+  void Run(dds::Heartbeat& heartbeat, msg::ReplayStats& stats) {
+    joiner_.threads.emplace_back([this] { Ingest(); });
+    joiner_.threads.emplace_back([this] { ServeSamples(); });
+    joiner_.threads.emplace_back([this] { TakeSnapshots(); });
+    heartbeat.Publish("running");
+    spdlog::info("shard {} listening on partition {}", id_, dds::ShardPartition(id_));
+    StatusLoop(heartbeat, stats);
+    heartbeat.Publish("stopping");
+    // the ingest thread drains and closes the stream, then the rest stops
+    joiner_.threads[0].join();
+    service_.Close();
+    for (auto& t : joiner_.threads)
+      if (t.joinable()) t.join();
+    // a clean stop keeps what was stored: a final snapshot when the shard has a directory
+    if (!options_.snapshot_dir.empty() && options_.snapshot_on_stop) {
+      auto r = service_.Snapshot(0);
+      if (!r.ok()) spdlog::warn("final snapshot failed: {}", r.status().message());
+      else if (!r->path.empty())
+        spdlog::info("final snapshot {}: {} transitions, {} bytes in {:.3f} s", r->path, r->transitions, r->bytes,
+                     r->seconds);
+    }
+  }
+
+ private:
+  // stores one batch; the rate limiter may hold it (a stop releases the limiter)
+  void Store(const msg::TransitionBatch& b) {
+    std::string why;
+    auto r = service_.Insert(b, 100ms, &why);
+    while (r == ReplayService::InsertResult::kTimedOut) {
+      if (StopRequested()) service_.ReleaseInserts();
+      r = service_.Insert(b, 100ms, &why);
+    }
+    last_batch_ = std::chrono::steady_clock::now();
+    if (!why.empty() && notes_logged_++ < 50) {
+      if (r == ReplayService::InsertResult::kRejected) spdlog::warn("rejected: {}", why);
+      else spdlog::warn("{}", why);
+    }
+  }
+
+  // ingest: the rate limiter may hold a batch; the DDS history then backs up to the actors.
+  // A batch taken from the reader has been acknowledged to its actor, so it is always stored:
+  // a stop releases the limiter, which lets a waiting insert through.
+  void Ingest() {
+    msg::TransitionBatch scratch;
+    last_batch_ = std::chrono::steady_clock::now();
+    auto take = [&] { return t_.batches.TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) { Store(b); }); };
+    while (!StopRequested())
+      if (t_.batches.Wait(50ms)) take();
+    // a clean stop: actors stopped together with the shard publish their last batches and wait
+    // for them to be acknowledged before they leave. Store without rate limiting until no writer
+    // is matched, or none has sent anything for kQuiet (they are done), or stop_drain_s passed;
+    // then unmatch the writers still there, so that nothing is acknowledged after the last take
+    constexpr auto kQuiet = 500ms;
+    service_.ReleaseInserts();
+    const auto drain_start = std::chrono::steady_clock::now();
+    const auto drain_end = drain_start + std::chrono::duration<double>(options_.stop_drain_s);
+    last_batch_ = std::max(last_batch_, drain_start);
+    while (t_.batches.matched() > 0 && std::chrono::steady_clock::now() < drain_end &&
+           std::chrono::steady_clock::now() - last_batch_ < kQuiet)
+      if (t_.batches.Wait(20ms)) take();
+    if (int writers = t_.batches.matched(); writers > 0) {
+      spdlog::info("closing the transition stream with {} writer(s) still matched", writers);
+      if (Status st = node_.DetachReaders(dds::ShardPartition(id_)); !st.ok()) spdlog::warn("{}", st.message());
+      std::this_thread::sleep_for(20ms);
+    }
+    while (take() > 0) {
+    }
+    ingest_done_ = true;
+  }
+
+  // sampling service: samples are served until the stream is closed (a learner may still be running)
+  void ServeSamples() {
+    msg::SampleRequest req;
+    msg::SampleReply reply;
+    msg::PriorityUpdate up;
+    while (!ingest_done_) {
+      t_.requests.Wait(20ms);
+      t_.requests.TakeAll(req, [&](const msg::SampleRequest& q, const auto&) {
+        if (q.shard_id() >= 0 && q.shard_id() != id_) return;
+        service_.Sample(q, &reply, 10s);
+        if (!t_.replies.Write(reply)) spdlog::warn("sample reply {} not sent (writer timed out)", q.correlation_id());
+      });
+      t_.updates.TakeAll(up, [&](const msg::PriorityUpdate& u, const auto&) {
+        if (u.shard_id() == uint32_t(id_)) service_.Update(u.kind(), u.key(), u.value());
+      });
+    }
+  }
+
+  // snapshots: one at a time, beside traffic
+  void TakeSnapshots() {
+    LowerThreadPriority();
+    const auto period = std::chrono::duration<double>(options_.snapshot_period_s);
+    auto next = std::chrono::steady_clock::now() + period;
+    while (!StopRequested()) {
+      uint64_t command = 0;
+      bool asked = snapshots_.Pop(&command, 100ms);
+      bool due = options_.snapshot_period_s > 0 && std::chrono::steady_clock::now() >= next;
+      if (!asked && !due) continue;
+      if (due) next = std::chrono::steady_clock::now() + period;
+      auto r = service_.Snapshot(command);
+      if (r.ok() && r->path.empty())
+        spdlog::info("snapshot skipped: nothing stored yet (command {})", command);
+      else if (r.ok())
+        spdlog::info("snapshot {}: {} transitions, {} bytes in {:.3f} s (command {})", r->path, r->transitions, r->bytes,
+                     r->seconds, command);
+      else
+        spdlog::warn("snapshot failed: {}", r.status().message());
+    }
+  }
+
+  // the main thread: Control commands, and ReplayStats with the heartbeat every status period
+  void StatusLoop(dds::Heartbeat& heartbeat, msg::ReplayStats& stats) {
+    auto period = std::chrono::duration<double>(options_.status_period_s);
+    auto last = std::chrono::steady_clock::now();
+    uint64_t last_inserted = service_.Stats(false).shard.inserted_transitions;
+    std::set<uint64_t> commands_seen;
+    msg::Control cmd;
+    while (!StopRequested()) {
+      t_.control.Wait(50ms);
+      t_.control.TakeAll(cmd, [&](const msg::Control& c, const auto&) {
+        bool mine = c.target() == "all" || c.target() == "replay" || c.target() == name_;
+        if (!mine || !commands_seen.insert(c.command_id()).second) return;
+        // a checkpoint epoch's snapshot is a snapshot stamped with the epoch's command id
+        if (c.command() == msg::CONTROL_SNAPSHOT || c.command() == msg::CONTROL_CHECKPOINT) snapshots_.Push(c.command_id());
+        if (c.command() == msg::CONTROL_STOP) RequestStop();
+      });
+      auto now = std::chrono::steady_clock::now();
+      if (now - last >= period) {
+        double dt = std::chrono::duration<double>(now - last).count();
+        auto v = service_.Stats(false);
+        FillStats(v, (v.shard.inserted_transitions - last_inserted) / dt, stats);
+        t_.stats.Write(stats);
+        heartbeat.Publish("running");
+        last = now;
+        last_inserted = v.shard.inserted_transitions;
+      }
+    }
+  }
+
+  const int64_t id_;
+  const std::string name_;
+  const ReplayOptions& options_;
+  ReplayService& service_;
+  dds::Node& node_;
+  Topics& t_;
+  SnapshotQueue snapshots_;
+  std::atomic<bool> ingest_done_{false};
+  uint64_t notes_logged_ = 0;                          // ingest thread only
+  std::chrono::steady_clock::time_point last_batch_;  // ingest thread only
+  Joiner joiner_;                                     // last: joins before the rest goes
+};
+
+// the final ReplayStats: published, written to --stats-out, and logged
+void ReportFinalStats(ReplayService& service, Topics& t, msg::ReplayStats& stats, const std::string& stats_out) {
+  auto final_view = service.Stats(true);
+  FillStats(final_view, 0.0, stats);
+  t.stats.Write(stats);
+  t.stats.WaitAcked(500ms);
+  if (!stats_out.empty()) {
+    if (Status s = WriteFileAtomic(stats_out, StatsJson(stats, final_view).dump() + "\n"); !s.ok())
+      spdlog::warn("{}", s.message());
+  }
+  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} sequence jumps ({} held "
+               "unconfirmed), {} rejected, {} samples served",
+               stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(),
+               final_view.seq_jumps, final_view.held, stats.rejected(), stats.samples_served());
+  for (const auto& [actor, a] : final_view.actors)
+    spdlog::info("actor {}: {} transitions in {} batches stored (next seq {})", actor, a.transitions, a.batches,
+                 a.next_seq);
+}
+
 int ReplayMain(int argc, char** argv) {
   ProcessMain main("coins-replay", "Runs one replay shard: stores transition batches and serves samples.");
   RunOptions run;
@@ -150,192 +371,18 @@ int ReplayMain(int argc, char** argv) {
 
   // resume before joining DDS: a shard that is not ready does not take data
   ResumeReport resume;
-  // --resume-epoch N: the snapshot of checkpoint epoch N (coins run --resume)
-  const uint64_t resume_command = resume_epoch >= 0 ? CheckpointCommandId(uint64_t(resume_epoch)) : 0;
-  auto service_or = ReplayService::Open(uint32_t(id), options, &resume, resume_command);
-  for (const auto& c : resume.corrupt) spdlog::warn("skipped snapshot: {}", c);
-  if (!service_or.ok()) {
-    spdlog::error("{}", service_or.status().message());
-    return 1;
-  }
-  ReplayService& service = **service_or;
-  if (resume_command != 0 && resume.snapshot.empty())
-    spdlog::warn("no snapshot of epoch {} in '{}' ({} of other commands): starting empty (a shard that held "
-                 "nothing at the cut writes none)", resume_epoch, options.snapshot_dir, resume.other_command.size());
-  if (!resume.snapshot.empty()) {
-    spdlog::info("resumed {} transitions from {} in {:.3f} s", resume.transitions, resume.snapshot, resume.seconds);
-    for (const auto& c : resume.config_changes)
-      spdlog::warn("config differs from the snapshot's: {} ({} wins{})", c, resume.new_config_won ? "new" : "snapshot",
-                   resume.new_config_won ? "" : "; pass --new-config to use the new one");
-  }
-
-  auto node = dds::Node::Create(main.dds(), main.name());
-  if (!node.ok()) {
-    spdlog::error("{}", node.status().message());
-    return 1;
-  }
-  auto reader = (*node)->MakeReader<msg::TransitionBatchPubSubType>(
-      dds::kTransitionTopic, dds::TransitionReaderQos(main.dds()), dds::ShardPartition(id));
-  auto requests = (*node)->MakeReader<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingReaderQos(64));
-  auto replies = (*node)->MakeWriter<msg::SampleReplyPubSubType>(dds::kSampleReplyTopic, dds::SamplingWriterQos(8));
-  auto updates = (*node)->MakeReader<msg::PriorityUpdatePubSubType>(dds::kPriorityUpdateTopic, dds::SamplingReaderQos(64));
-  auto control = (*node)->MakeReader<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandReaderQos());
-  auto stats_writer = (*node)->MakeWriter<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusWriterQos());
-  auto heartbeat = dds::Heartbeat::Create(**node, main.name(), "replay");
-  for (const Status* s : {&reader.status(), &requests.status(), &replies.status(), &updates.status(), &control.status(),
-                          &stats_writer.status(), &heartbeat.status()})
-    if (!s->ok()) {
-      spdlog::error("cannot open DDS topics: {}", s->message());
-      return 1;
-    }
-
-  uint64_t notes_logged = 0;
-  SnapshotQueue snapshots;
-  Joiner joiner;
-  std::atomic<bool> ingest_done{false};
-
-  // ingest: the rate limiter may hold a batch; the DDS history then backs up to the actors.
-  // A batch taken from the reader has been acknowledged to its actor, so it is always stored:
-  // a stop releases the limiter, which lets a waiting insert through.
-  joiner.threads.emplace_back([&] {
-    msg::TransitionBatch scratch;
-    auto last_batch = std::chrono::steady_clock::now();
-    auto store = [&](const msg::TransitionBatch& b, const auto&) {
-      std::string why;
-      auto r = service.Insert(b, 100ms, &why);
-      while (r == ReplayService::InsertResult::kTimedOut) {
-        if (StopRequested()) service.ReleaseInserts();
-        r = service.Insert(b, 100ms, &why);
-      }
-      last_batch = std::chrono::steady_clock::now();
-      if (!why.empty() && notes_logged++ < 50) {
-        if (r == ReplayService::InsertResult::kRejected) spdlog::warn("rejected: {}", why);
-        else spdlog::warn("{}", why);
-      }
-    };
-    auto take = [&] { return reader->TakeAll(scratch, store); };
-    while (!StopRequested())
-      if (reader->Wait(50ms)) take();
-    // a clean stop: actors stopped together with the shard publish their last batches and wait
-    // for them to be acknowledged before they leave. Store without rate limiting until no writer
-    // is matched, or none has sent anything for kQuiet (they are done), or stop_drain_s passed;
-    // then unmatch the writers still there, so that nothing is acknowledged after the last take
-    constexpr auto kQuiet = 500ms;
-    service.ReleaseInserts();
-    const auto drain_start = std::chrono::steady_clock::now();
-    const auto drain_end = drain_start + std::chrono::duration<double>(options.stop_drain_s);
-    last_batch = std::max(last_batch, drain_start);
-    while (reader->matched() > 0 && std::chrono::steady_clock::now() < drain_end &&
-           std::chrono::steady_clock::now() - last_batch < kQuiet)
-      if (reader->Wait(20ms)) take();
-    if (int writers = reader->matched(); writers > 0) {
-      spdlog::info("closing the transition stream with {} writer(s) still matched", writers);
-      if (Status st = (*node)->DetachReaders(dds::ShardPartition(id)); !st.ok()) spdlog::warn("{}", st.message());
-      std::this_thread::sleep_for(20ms);
-    }
-    while (take() > 0) {
-    }
-    ingest_done = true;
-  });
-
-  // sampling service
-  joiner.threads.emplace_back([&] {
-    msg::SampleRequest req;
-    msg::SampleReply reply;
-    msg::PriorityUpdate up;
-    // samples are served until the stream is closed (a learner may still be running)
-    while (!ingest_done) {
-      requests->Wait(20ms);
-      requests->TakeAll(req, [&](const msg::SampleRequest& q, const auto&) {
-        if (q.shard_id() >= 0 && q.shard_id() != id) return;
-        service.Sample(q, &reply, 10s);
-        if (!replies->Write(reply)) spdlog::warn("sample reply {} not sent (writer timed out)", q.correlation_id());
-      });
-      updates->TakeAll(up, [&](const msg::PriorityUpdate& u, const auto&) {
-        if (u.shard_id() == uint32_t(id)) service.Update(u.kind(), u.key(), u.value());
-      });
-    }
-  });
-
-  // snapshots: one at a time, beside traffic
-  joiner.threads.emplace_back([&] {
-    LowerThreadPriority();
-    const auto period = std::chrono::duration<double>(options.snapshot_period_s);
-    auto next = std::chrono::steady_clock::now() + period;
-    while (!StopRequested()) {
-      uint64_t command = 0;
-      bool asked = snapshots.Pop(&command, 100ms);
-      bool due = options.snapshot_period_s > 0 && std::chrono::steady_clock::now() >= next;
-      if (!asked && !due) continue;
-      if (due) next = std::chrono::steady_clock::now() + period;
-      auto r = service.Snapshot(command);
-      if (r.ok() && r->path.empty())
-        spdlog::info("snapshot skipped: nothing stored yet (command {})", command);
-      else if (r.ok())
-        spdlog::info("snapshot {}: {} transitions, {} bytes in {:.3f} s (command {})", r->path, r->transitions, r->bytes,
-                     r->seconds, command);
-      else
-        spdlog::warn("snapshot failed: {}", r.status().message());
-    }
-  });
+  auto service = OpenService(id, options, resume_epoch, &resume);
+  if (!service.ok()) return ExitWithError(service.status(), 1);
+  auto dds = main.OpenNode("replay");
+  if (!dds.ok()) return ExitWithError(dds.status(), 1);
+  auto topics = OpenTopics(*dds->node, main.dds(), id);
+  if (!topics.ok()) return ExitWithError(topics.status(), 1);
 
   msg::ReplayStats stats;
   stats.restored_transitions(resume.transitions);
   stats.corrupt_snapshots(resume.corrupt.size());
-  auto period = std::chrono::duration<double>(options.status_period_s);
-  auto last = std::chrono::steady_clock::now();
-  uint64_t last_inserted = service.Stats(false).shard.inserted_transitions;
-  std::set<uint64_t> commands_seen;
-  heartbeat->Publish("running");
-  spdlog::info("shard {} listening on partition {}", id, dds::ShardPartition(id));
-  msg::Control cmd;
-  while (!StopRequested()) {
-    control->Wait(50ms);
-    control->TakeAll(cmd, [&](const msg::Control& c, const auto&) {
-      bool mine = c.target() == "all" || c.target() == "replay" || c.target() == main.name();
-      if (!mine || !commands_seen.insert(c.command_id()).second) return;
-      // a checkpoint epoch's snapshot is a snapshot stamped with the epoch's command id
-      if (c.command() == msg::CONTROL_SNAPSHOT || c.command() == msg::CONTROL_CHECKPOINT) snapshots.Push(c.command_id());
-      if (c.command() == msg::CONTROL_STOP) RequestStop();
-    });
-    auto now = std::chrono::steady_clock::now();
-    if (now - last >= period) {
-      double dt = std::chrono::duration<double>(now - last).count();
-      auto v = service.Stats(false);
-      FillStats(v, (v.shard.inserted_transitions - last_inserted) / dt, stats);
-      stats_writer->Write(stats);
-      heartbeat->Publish("running");
-      last = now;
-      last_inserted = v.shard.inserted_transitions;
-    }
-  }
-
-  heartbeat->Publish("stopping");
-  // the ingest thread drains and closes the stream, then the rest stops
-  joiner.threads[0].join();
-  service.Close();
-  for (auto& t : joiner.threads)
-    if (t.joinable()) t.join();
-  // a clean stop keeps what was stored: a final snapshot when the shard has a directory
-  if (!options.snapshot_dir.empty() && options.snapshot_on_stop) {
-    auto r = service.Snapshot(0);
-    if (!r.ok()) spdlog::warn("final snapshot failed: {}", r.status().message());
-    else if (!r->path.empty())
-      spdlog::info("final snapshot {}: {} transitions, {} bytes in {:.3f} s", r->path, r->transitions, r->bytes,
-                   r->seconds);
-  }
-  auto final_view = service.Stats(true);
-  FillStats(final_view, 0.0, stats);
-  stats_writer->Write(stats);
-  stats_writer->WaitAcked(500ms);
-  if (!stats_out.empty()) WriteStatsJson(stats_out, stats, final_view);
-  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} sequence jumps ({} held "
-               "unconfirmed), {} rejected, {} samples served",
-               stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(),
-               final_view.seq_jumps, final_view.held, stats.rejected(), stats.samples_served());
-  for (const auto& [actor, a] : final_view.actors)
-    spdlog::info("actor {}: {} transitions in {} batches stored (next seq {})", actor, a.transitions, a.batches,
-                 a.next_seq);
+  ShardProcess(id, main.name(), options, **service, *dds->node, *topics).Run(dds->heartbeat, stats);
+  ReportFinalStats(**service, *topics, stats, stats_out);
   return 0;
 }
 

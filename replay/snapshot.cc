@@ -10,6 +10,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "common/files.h"
+
 namespace coins {
 
 namespace fs = std::filesystem;
@@ -118,20 +120,24 @@ void ApplySnapshotConfig(const nlohmann::json& s, ReplayOptions* o) {
   get("priority_exponent", o->priority_exponent);
 }
 
-Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, const RateLimiter& limiter,
-                                          const ReplayOptions& options, uint64_t command_id, const fs::path& path) {
-  auto start = std::chrono::steady_clock::now();
-  const ChunkStore& store = shard.store();
+namespace {
+
+// what a snapshot describes beside its chunks, taken together under the lock
+struct ShardDescription {
   nlohmann::json meta, ledger = nlohmann::json::array();
-  uint64_t first_id, end_id;
-  // what the snapshot describes: taken together under the lock
-  {
-    std::lock_guard lock(mu);
-    if (!store.configured()) return Errorf("snapshot of shard {}: nothing stored yet", shard.id());
-    first_id = store.first_id();
-    end_id = store.end_id();
-    RateLimiterCounters rc = limiter.counters();
-    meta = {{"shard_id", shard.id()},
+  uint64_t first_id = 0, end_id = 0;  // the chunk ids stored
+};
+
+Result<ShardDescription> DescribeShard(std::mutex& mu, const Shard& shard, const RateLimiter& limiter,
+                                       uint64_t command_id) {
+  const ChunkStore& store = shard.store();
+  ShardDescription d;
+  std::lock_guard lock(mu);
+  if (!store.configured()) return Errorf("snapshot of shard {}: nothing stored yet", shard.id());
+  d.first_id = store.first_id();
+  d.end_id = store.end_id();
+  RateLimiterCounters rc = limiter.counters();
+  d.meta = {{"shard_id", shard.id()},
             {"created_unix", std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()},
             {"command_id", command_id},
             {"layout_hash", store.layout_hash()},
@@ -147,11 +153,67 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
             {"rate_inserted", rc.inserted},
             {"rate_sampled", rc.sampled},
             {"max_priority", shard.priorities().max_priority()}};
-    for (const auto& [id, a] : shard.ledger().actors())
-      ledger.push_back({{"actor_id", id}, {"incarnation", a.incarnation}, {"next_seq", a.next_seq},
+  for (const auto& [id, a] : shard.ledger().actors())
+    d.ledger.push_back({{"actor_id", id}, {"incarnation", a.incarnation}, {"next_seq", a.next_seq},
                         {"batches", a.batches}, {"transitions", a.transitions}, {"checksum", a.checksum},
                         {"incarnations", a.incarnations}, {"seq_jumps", a.seq_jumps}});
+  return d;
+}
+
+// the chunks' descriptions and the rows' priorities and weights, gathered while DATA is written
+struct ChunkTables {
+  std::vector<SnapshotChunk> chunks;
+  std::vector<float> prio;  // priority, weight per row
+  uint64_t transitions = 0;
+};
+
+// writes the DATA section: chunk bytes in slices, each copied under the lock and written
+// outside it (chunks evicted meanwhile are skipped); sets meta's first_id and first_row
+ChunkTables WriteChunkData(std::mutex& mu, const Shard& shard, ShardDescription& d, Out& out) {
+  const ChunkStore& store = shard.store();
+  ChunkTables t;
+  std::vector<uint64_t> chunk_hashes;
+  std::vector<uint8_t> slice;
+  slice.reserve(size_t(kSliceBytes) + (size_t(1) << 20));
+  out.Begin("DATA");
+  for (uint64_t id = d.first_id; id < d.end_id;) {
+    slice.clear();
+    {
+      std::lock_guard lock(mu);
+      for (; id < d.end_id && int64_t(slice.size()) < kSliceBytes; ++id) {
+        int64_t i = store.IndexOf(id);
+        if (i < 0) continue;  // evicted meanwhile
+        const ChunkInfo& c = store.chunk(size_t(i));
+        const uint8_t* b = store.bytes(size_t(i));
+        if (t.chunks.empty()) {
+          d.meta["first_id"] = c.id;
+          d.meta["first_row"] = c.row_base;
+        }
+        slice.insert(slice.end(), b, b + c.bytes);
+        chunk_hashes.push_back(HashBytes(b, size_t(c.bytes)));
+        t.chunks.push_back({uint64_t(c.bytes), c.n_rows, c.transitions, c.n_deltas, c.actor_id, c.env_id, c.seq,
+                            c.incarnation, c.episode_base, c.continues ? 1u : 0u});
+        t.transitions += c.transitions;
+        for (uint32_t r = 0; r < c.n_rows; ++r) {
+          t.prio.push_back(shard.priorities().RawPriority(c.row_base + r));
+          t.prio.push_back(shard.priorities().RawWeight(c.row_base + r));
+        }
+      }
+    }
+    out.Write(slice.data(), slice.size());
   }
+  out.SetHash(HashBytes(chunk_hashes.data(), chunk_hashes.size() * 8));
+  out.End();
+  return t;
+}
+
+}  // namespace
+
+Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, const RateLimiter& limiter,
+                                          const ReplayOptions& options, uint64_t command_id, const fs::path& path) {
+  auto start = std::chrono::steady_clock::now();
+  auto d = DescribeShard(mu, shard, limiter, command_id);
+  if (!d.ok()) return d.status();
 
   fs::path tmp = path;
   tmp += ".tmp";
@@ -160,73 +222,32 @@ Result<SnapshotWriteResult> WriteSnapshot(std::mutex& mu, const Shard& shard, co
   out.Write(kMagic, 8);
   uint32_t version[2] = {kSnapshotFormat, 0};
   out.Write(version, 8);
-
-  // chunk bytes in slices, each copied under the lock and written outside it
-  std::vector<SnapshotChunk> chunks;
-  std::vector<float> prio;
-  std::vector<uint64_t> chunk_hashes;
-  std::vector<uint8_t> slice;
-  slice.reserve(size_t(kSliceBytes) + (size_t(1) << 20));
-  uint64_t transitions = 0;
-  out.Begin("DATA");
-  for (uint64_t id = first_id; id < end_id;) {
-    slice.clear();
-    {
-      std::lock_guard lock(mu);
-      for (; id < end_id && int64_t(slice.size()) < kSliceBytes; ++id) {
-        int64_t i = store.IndexOf(id);
-        if (i < 0) continue;  // evicted meanwhile
-        const ChunkInfo& c = store.chunk(size_t(i));
-        const uint8_t* b = store.bytes(size_t(i));
-        if (chunks.empty()) {
-          meta["first_id"] = c.id;
-          meta["first_row"] = c.row_base;
-        }
-        slice.insert(slice.end(), b, b + c.bytes);
-        chunk_hashes.push_back(HashBytes(b, size_t(c.bytes)));
-        chunks.push_back({uint64_t(c.bytes), c.n_rows, c.transitions, c.n_deltas, c.actor_id, c.env_id, c.seq,
-                          c.incarnation, c.episode_base, c.continues ? 1u : 0u});
-        transitions += c.transitions;
-        for (uint32_t r = 0; r < c.n_rows; ++r) {
-          prio.push_back(shard.priorities().RawPriority(c.row_base + r));
-          prio.push_back(shard.priorities().RawWeight(c.row_base + r));
-        }
-      }
-    }
-    out.Write(slice.data(), slice.size());
-  }
-  out.SetHash(HashBytes(chunk_hashes.data(), chunk_hashes.size() * 8));
-  out.End();
+  const ChunkTables t = WriteChunkData(mu, shard, *d, out);
   out.Begin("CHKD");
-  out.Payload(chunks.data(), chunks.size() * sizeof(SnapshotChunk));
+  out.Payload(t.chunks.data(), t.chunks.size() * sizeof(SnapshotChunk));
   out.End();
   out.Begin("PRIO");
-  out.Payload(prio.data(), prio.size() * sizeof(float));
+  out.Payload(t.prio.data(), t.prio.size() * sizeof(float));
   out.End();
-  meta["chunks"] = chunks.size();
-  meta["transitions"] = transitions;
-  meta["rows"] = prio.size() / 2;
-  out.Section("LEDG", ledger.dump());
+  d->meta["chunks"] = t.chunks.size();
+  d->meta["transitions"] = t.transitions;
+  d->meta["rows"] = t.prio.size() / 2;
+  out.Section("LEDG", d->ledger.dump());
   out.Section("CONF", SnapshotConfig(options).dump());
-  out.Section("META", meta.dump());
+  out.Section("META", d->meta.dump());
   out.Section("END!", "");
   if (!out.Sync()) return Errorf("snapshot {}: write failed: {}", tmp.string(), std::strerror(errno));
-  uint64_t size = out.size();
 
-  // publish atomically: rename over, then make the rename durable
+  // publish atomically: rename over, then make the rename durable (best effort)
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) return Errorf("snapshot {}: rename failed: {}", path.string(), ec.message());
-  int dfd = ::open(path.parent_path().c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
-  }
+  (void)SyncDirectory(path.parent_path().string()).ok();
   SnapshotWriteResult r;
   r.path = path.string();
-  r.chunks = chunks.size();
-  r.transitions = transitions;
-  r.bytes = size;
+  r.chunks = t.chunks.size();
+  r.transitions = t.transitions;
+  r.bytes = out.size();
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }

@@ -13,10 +13,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Status Read(const fs::path& path, SnapshotImage& img) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Errorf("snapshot {}: cannot open", path.string());
-  const std::string name = path.string();
+// the magic and the format version
+Status ReadHeader(std::ifstream& in, const std::string& name, SnapshotImage& img) {
   char magic[8];
   uint32_t version[2];
   if (!in.read(magic, 8) || std::memcmp(magic, "COINSRPL", 8) != 0)
@@ -25,11 +23,34 @@ Status Read(const fs::path& path, SnapshotImage& img) {
   if (version[0] != kSnapshotFormat)
     return Errorf("snapshot {}: format version {} (this build reads {})", name, version[0], kSnapshotFormat);
   if (version[1] != 0) return Errorf("snapshot {}: header is corrupt (reserved field set)", name);
-  in.seekg(0, std::ios::end);
-  const uint64_t file_size = uint64_t(in.tellg());
-  in.seekg(16);
   img.format = version[0];
-  uint64_t data_hash = 0;
+  return Status::Ok();
+}
+
+// keeps a checked section's payload (not DATA) in the image; *ended at END!
+Status TakeSection(const std::string& name, const std::string& tag, std::vector<uint8_t>& buf, SnapshotImage& img,
+                   bool* ended) {
+  const uint64_t length = buf.size();
+  if (tag == "END!") {
+    *ended = true;
+  } else if (tag == "CHKD") {
+    if (length % sizeof(SnapshotChunk)) return Errorf("snapshot {}: section 'CHKD' has a partial record", name);
+    img.chunks.resize(size_t(length / sizeof(SnapshotChunk)));
+    std::memcpy(img.chunks.data(), buf.data(), size_t(length));
+  } else if (tag == "PRIO") {
+    img.priorities.resize(size_t(length / 4));
+    std::memcpy(img.priorities.data(), buf.data(), size_t(length / 4 * 4));
+  } else if (tag == "LEDG" || tag == "CONF" || tag == "META") {
+    auto j = nlohmann::json::parse(buf.begin(), buf.end(), nullptr, false);
+    if (j.is_discarded()) return Errorf("snapshot {}: section '{}' is not valid JSON", name, tag);
+    (tag == "LEDG" ? img.ledger : tag == "CONF" ? img.config : img.meta) = std::move(j);
+  }
+  return Status::Ok();
+}
+
+// the sections up to END!, each checked against its hash except DATA (its hash in *data_hash)
+Status ReadSections(std::ifstream& in, const std::string& name, uint64_t file_size, SnapshotImage& img,
+                    uint64_t* data_hash) {
   std::vector<uint8_t> buf;
   for (bool ended = false; !ended;) {
     uint8_t h[24];
@@ -53,28 +74,21 @@ Status Read(const fs::path& path, SnapshotImage& img) {
       // checked once the chunk records are known
       img.data = std::move(buf);
       buf = {};
-      data_hash = hash;
+      *data_hash = hash;
       continue;
     }
     if (HashBytes(buf.data(), buf.size()) != hash) {
       img.sections.back().ok = false;
       return Errorf("snapshot {}: section '{}' fails its checksum", name, tag);
     }
-    if (tag == "END!") {
-      ended = true;
-    } else if (tag == "CHKD") {
-      if (length % sizeof(SnapshotChunk)) return Errorf("snapshot {}: section 'CHKD' has a partial record", name);
-      img.chunks.resize(size_t(length / sizeof(SnapshotChunk)));
-      std::memcpy(img.chunks.data(), buf.data(), size_t(length));
-    } else if (tag == "PRIO") {
-      img.priorities.resize(size_t(length / 4));
-      std::memcpy(img.priorities.data(), buf.data(), size_t(length / 4 * 4));
-    } else if (tag == "LEDG" || tag == "CONF" || tag == "META") {
-      auto j = nlohmann::json::parse(buf.begin(), buf.end(), nullptr, false);
-      if (j.is_discarded()) return Errorf("snapshot {}: section '{}' is not valid JSON", name, tag);
-      (tag == "LEDG" ? img.ledger : tag == "CONF" ? img.config : img.meta) = std::move(j);
-    }
+    COINS_RETURN_IF_ERROR(TakeSection(name, tag, buf, img, &ended));
   }
+  return Status::Ok();
+}
+
+// what the sections must say together: all present, DATA as the chunk records describe it,
+// a priority and a weight per row, META's layout
+Status CheckImage(const std::string& name, uint64_t data_hash, SnapshotImage& img) {
   for (const char* need : {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META"})
     if (std::none_of(img.sections.begin(), img.sections.end(), [&](const auto& s) { return s.tag == need; }))
       return Errorf("snapshot {}: section '{}' is missing", name, need);
@@ -99,6 +113,19 @@ Status Read(const fs::path& path, SnapshotImage& img) {
     if (!img.meta.contains(key) || !img.meta[key].is_number_unsigned())
       return Errorf("snapshot {}: section 'META' lacks '{}'", name, key);
   return Status::Ok();
+}
+
+Status Read(const fs::path& path, SnapshotImage& img) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Errorf("snapshot {}: cannot open", path.string());
+  const std::string name = path.string();
+  COINS_RETURN_IF_ERROR(ReadHeader(in, name, img));
+  in.seekg(0, std::ios::end);
+  const uint64_t file_size = uint64_t(in.tellg());
+  in.seekg(16);
+  uint64_t data_hash = 0;
+  COINS_RETURN_IF_ERROR(ReadSections(in, name, file_size, img, &data_hash));
+  return CheckImage(name, data_hash, img);
 }
 
 }  // namespace

@@ -44,6 +44,16 @@ void Fill(ReplayService& s, TestStream& stream, int batches) {
     ASSERT_EQ(s.Insert(*stream.Next(64), 1s), ReplayService::InsertResult::kStored);
 }
 
+// xors the byte at `at` of the file with mask
+void FlipBits(const fs::path& path, uint64_t at, char mask) {
+  std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+  f.seekg(std::streamoff(at));
+  char c;
+  f.get(c);
+  f.seekp(std::streamoff(at));
+  f.put(char(c ^ mask));
+}
+
 TEST(Snapshot, RoundTripKeepsDataLedgerPrioritiesAndCounters) {
   auto dir = TempDir("roundtrip");
   ResumeReport report;
@@ -133,26 +143,12 @@ TEST(Snapshot, TruncatedAndBitFlippedSnapshotsAreDetectedAndThePreviousOneUsed) 
   // one flipped bit anywhere is caught: a sweep over the whole file
   for (uint64_t at = 3; at < size; at += 211) {
     fs::copy_file(dir / "copy", newest, fs::copy_options::overwrite_existing);
-    {
-      std::fstream f(newest, std::ios::in | std::ios::out | std::ios::binary);
-      f.seekg(std::streamoff(at));
-      char c;
-      f.get(c);
-      f.seekp(std::streamoff(at));
-      f.put(char(c ^ 0x80));
-    }
+    FlipBits(newest, at, 0x80);
     ASSERT_FALSE(ReadSnapshot(newest).ok()) << "flipped byte " << at << " of " << size;
   }
   for (uint64_t at : {uint64_t(100), uint64_t(size - 200)}) {
     fs::copy_file(dir / "copy", newest, fs::copy_options::overwrite_existing);
-    {
-      std::fstream f(newest, std::ios::in | std::ios::out | std::ios::binary);
-      f.seekg(std::streamoff(at));
-      char c;
-      f.get(c);
-      f.seekp(std::streamoff(at));
-      f.put(char(c ^ 0x10));
-    }
+    FlipBits(newest, at, 0x10);
     auto img = ReadSnapshot(newest);
     ASSERT_FALSE(img.ok()) << "flipped byte " << at << " of " << size;
     EXPECT_NE(img.status().message().find("fails its checksum"), std::string::npos) << img.status().message();

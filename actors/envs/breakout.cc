@@ -195,13 +195,7 @@ void BreakoutEnv::Reset(uint64_t seed, std::span<float> state) {
   paddle_x_ = kPaddleX0;
   drops_ = 0;
   BuildBoard();
-  Serve();
-  bounces_ = hits_ = 0;
-  last_action_ = 0;
-  last_reward_ = last_done_ = 0.0f;
-  episode_over_ = false;
-  SyncAll();
-  GetState(state);
+  StartEpisode(state);
 }
 
 void BreakoutEnv::ResetNext(std::span<float> state) {
@@ -211,6 +205,10 @@ void BreakoutEnv::ResetNext(std::span<float> state) {
     drops_ = 0;
     BuildBoard();
   }
+  StartEpisode(state);
+}
+
+void BreakoutEnv::StartEpisode(std::span<float> state) {
   Serve();
   bounces_ = hits_ = 0;
   last_action_ = 0;
@@ -293,21 +291,28 @@ void BreakoutEnv::ApplyRestores() {
   }
 }
 
+namespace {
+
+// a step's arguments, checked before the step touches anything
+Status CheckStep(const std::string& env, std::span<const float> action, size_t state_size, size_t obs_size,
+                 bool episode_over) {
+  if (action.size() != 1) return Errorf("{}: action must be 1 float (a discrete index), got {}", env, action.size());
+  const float a = action[0];
+  if (!std::isfinite(a)) return Errorf("{}: action {} is not a finite number", env, a);
+  if (a != std::floor(a)) return Errorf("{}: action {} is not an integer index", env, a);
+  if (a < 0.0f || a > 3.0f) return Errorf("{}: action {} out of range [0, 3]", env, a);
+  if (state_size != obs_size) return Errorf("{}: state buffer has {} floats, expected {}", env, state_size, obs_size);
+  if (episode_over) return Errorf("{}: the episode is over; call ResetNext or Reset", env);
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status BreakoutEnv::Step(std::span<const float> action, std::span<float> next_state,
                          StepResult* result) {
-  // validate before touching anything
-  if (action.size() != 1)
-    return Errorf("{}: action must be 1 float (a discrete index), got {}", spec_.name, action.size());
-  const float a = action[0];
-  if (!std::isfinite(a)) return Errorf("{}: action {} is not a finite number", spec_.name, a);
-  if (a != std::floor(a)) return Errorf("{}: action {} is not an integer index", spec_.name, a);
-  if (a < 0.0f || a > 3.0f) return Errorf("{}: action {} out of range [0, 3]", spec_.name, a);
-  if (next_state.size() != obs_.size())
-    return Errorf("{}: state buffer has {} floats, expected {}", spec_.name, next_state.size(), obs_.size());
-  if (episode_over_) return Errorf("{}: the episode is over; call ResetNext or Reset", spec_.name);
-
+  COINS_RETURN_IF_ERROR(CheckStep(spec_.name, action, next_state.size(), obs_.size(), episode_over_));
   StepResult r;
-  const int act = static_cast<int>(a);
+  const int act = static_cast<int>(action[0]);
   last_action_ = act;
 
   // paddle

@@ -78,6 +78,7 @@ class BreakoutEnv final : public Env {
  private:
   void BuildBoard();     // lays out blocks for the variant (random parts from rng_)
   void Serve();          // puts the ball at a serve position
+  void StartEpisode(std::span<float> state);  // serves and clears the episode counters; writes the state
   void ApplyRestores();  // per-step restores (neg: all blocks, prox: top row)
   void PickTarget();     // prox: a new target among live blocks
   void HitBlock(int i, StepResult* r);

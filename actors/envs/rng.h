@@ -6,6 +6,8 @@
 
 #include <cstdint>
 
+#include "common/splitmix.h"
+
 namespace coins::envs {
 
 class Rng {
@@ -13,13 +15,7 @@ class Rng {
   explicit Rng(uint64_t seed = 0) { Seed(seed); }
 
   void Seed(uint64_t seed) {
-    for (auto& w : s_) {
-      seed += 0x9e3779b97f4a7c15ull;
-      uint64_t z = seed;
-      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-      z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-      w = z ^ (z >> 31);
-    }
+    for (auto& w : s_) w = SplitMix64Next(seed);
   }
 
   uint64_t Next() {

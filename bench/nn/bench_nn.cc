@@ -87,6 +87,21 @@ void Record(coins::Figures* f, const std::string& prefix, Samples s) {
   f->AddMedian(prefix + "_flop_ratio", s.ratio, "ratio");
 }
 
+// reps measurements of a network update against the same layers' plain matrix products
+template <typename Update>
+Samples Measure(Update& update, GemmBaseline& gemm, int reps, double min_seconds) {
+  Samples s;
+  for (int r = 0; r < reps; ++r) {
+    const double t_net = TimePerCall(update, min_seconds);
+    const double t_mm = TimePerCall([&] { gemm.Run(); }, min_seconds);
+    s.updates_per_s.push_back(1.0 / t_net);
+    s.gflops.push_back(gemm.flops() / t_net * 1e-9);
+    s.matmul_gflops.push_back(gemm.flops() / t_mm * 1e-9);
+    s.ratio.push_back(t_mm / t_net);
+  }
+  return s;
+}
+
 Samples BenchMlp(int reps, double min_seconds) {
   using namespace coins::nn;
   const int batch = 256;
@@ -102,16 +117,7 @@ Samples BenchMlp(int reps, double min_seconds) {
     net.Backward(dout);
     adam.Step(&net.params());
   };
-  Samples s;
-  for (int r = 0; r < reps; ++r) {
-    const double t_net = TimePerCall(update, min_seconds);
-    const double t_mm = TimePerCall([&] { gemm.Run(); }, min_seconds);
-    s.updates_per_s.push_back(1.0 / t_net);
-    s.gflops.push_back(gemm.flops() / t_net * 1e-9);
-    s.matmul_gflops.push_back(gemm.flops() / t_mm * 1e-9);
-    s.ratio.push_back(t_mm / t_net);
-  }
-  return s;
+  return Measure(update, gemm, reps, min_seconds);
 }
 
 Samples BenchPairNet(int reps, double min_seconds) {
@@ -140,16 +146,7 @@ Samples BenchPairNet(int reps, double min_seconds) {
     net.Backward(dout);
     adam.Step(&net.params());
   };
-  Samples s;
-  for (int r = 0; r < reps; ++r) {
-    const double t_net = TimePerCall(update, min_seconds);
-    const double t_mm = TimePerCall([&] { gemm.Run(); }, min_seconds);
-    s.updates_per_s.push_back(1.0 / t_net);
-    s.gflops.push_back(gemm.flops() / t_net * 1e-9);
-    s.matmul_gflops.push_back(gemm.flops() / t_mm * 1e-9);
-    s.ratio.push_back(t_mm / t_net);
-  }
-  return s;
+  return Measure(update, gemm, reps, min_seconds);
 }
 
 void BenchPaddle(coins::Figures* f, int seeds) {

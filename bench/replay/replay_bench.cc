@@ -23,10 +23,10 @@
 
 #include "actors/actor.h"
 #include "bench/breakout_batches.h"
+#include "bench/replay_shard.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "common/cli_checks.h"
-#include "common/dds/domain_lease.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -192,14 +192,82 @@ void SnapshotFigures(const Args& a, const std::vector<std::unique_ptr<msg::Trans
   fs::remove_all(dir);
 }
 
+// the sampling configurations measured: name, strategy, hindsight
+constexpr std::tuple<const char*, uint8_t, bool> kSamplings[] = {{"uniform", msg::SAMPLE_UNIFORM, false},
+                                                                 {"prioritized", msg::SAMPLE_PRIORITIZED, false},
+                                                                 {"uniform_her", msg::SAMPLE_UNIFORM, true},
+                                                                 {"prioritized_her", msg::SAMPLE_PRIORITIZED, true}};
+
+// sampling over DDS from the filled shard
+Status DdsSamplingFigures(const Args& a, dds::Node& node, Figures* f) {
+  ReplayClientOptions co;
+  co.shards = 1;
+  co.timeout = 5s;
+  auto client = ReplayClient::Create(node, co);
+  if (!client.ok() || !(*client)->WaitForShards(20s)) return Errorf("sampling client did not match the shard");
+  rl::Batch batch;
+  for (auto [name, strategy, her] : kSamplings) {
+    auto& o = (*client)->options();
+    o.strategy = strategy;
+    o.her_strategy = her ? msg::HER_FUTURE : msg::HER_NONE;
+    o.her_ratio = her ? 0.8f : 0.0f;
+    o.goal_mask = her ? std::vector<float>{1.0f, 1.0f} : std::vector<float>{};
+    o.goal_epsilon = 0.5f;
+    std::vector<double> rates;
+    for (int r = 0; r < a.repeats; ++r) {
+      auto t0 = Clock::now();
+      uint64_t n = 0;
+      while (Since(t0) < a.seconds) {
+        COINS_RETURN_IF_ERROR((*client)->Sample(256, &batch));
+        // priorities move as a learner's would
+        if (strategy == msg::SAMPLE_PRIORITIZED) {
+          std::vector<float> p(batch.keys.size(), 0.5f + float(n % 7));
+          (*client)->UpdatePriorities(batch.keys, p);
+        }
+        n += 256;
+      }
+      rates.push_back(double(n) / Since(t0));
+    }
+    f->AddMedian(std::string("samples_per_s_") + name, rates, "transitions/s");
+  }
+  return Status::Ok();
+}
+
+// the sampler alone, in-process, on the same kind of data
+void SamplerFigures(const Args& a, const std::vector<std::unique_ptr<msg::TransitionBatch>>& batches, Figures* f) {
+  ReplayOptions o;
+  o.capacity = 1'000'000;
+  ResumeReport rep;
+  auto s = ReplayService::Open(0, o, &rep);
+  msg::TransitionBatch b;
+  for (uint64_t seq = 0; seq < 4000; ++seq) {
+    b = *batches[seq % batches.size()];
+    b.seq(seq);
+    b.payload_hash(PayloadHash(b));
+    (*s)->Insert(b, 1s);
+  }
+  msg::SampleReply reply;
+  for (auto [name, strategy, her] : kSamplings) {
+    std::vector<double> rates;
+    auto q = Request(strategy, her);
+    for (int r = 0; r < a.repeats; ++r) {
+      auto t0 = Clock::now();
+      uint64_t n = 0;
+      while (Since(t0) < a.seconds / 2) {
+        (*s)->Sample(q, &reply, 1s);
+        n += reply.n();
+      }
+      rates.push_back(double(n) / Since(t0));
+    }
+    f->AddMedian(std::string("sampler_per_s_") + name, rates, "transitions/s");
+  }
+}
+
 int Main(int argc, char** argv) {
   Args a;
   CLI::App app("Replay service figures: inserts, samples, snapshots, resume", "coins-bench-replay");
   app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
-  app.add_option("--domain", a.domain,
-                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
-                 "common/dds/domain_lease.h)")
-      ->check(cli::Integer(0, 232));
+  bench::AddDomainOption(app, &a.domain);
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_option("--snapshot-transitions", a.snapshot_transitions, "transitions in the snapshot figures")
       ->check(CLI::Range(int64_t(10000), int64_t(1) << 30));
@@ -210,27 +278,15 @@ int Main(int argc, char** argv) {
   Figures f;
 
   // one shard process on a private domain
-  auto lease = dds::DomainLease::Choose(int(a.domain));
-  if (!lease.ok()) {
-    std::cerr << "coins-bench-replay: " << lease.status().message() << "\n";
-    return 2;
+  int exit_code = 0;
+  auto process = bench::StartReplayShard("coins-bench-replay", int(a.domain),
+                                         {"replay.capacity=1000000", "replay.status_period_s=0.1"}, &exit_code);
+  if (!process.ok()) {
+    std::cerr << "coins-bench-replay: " << process.status().message() << "\n";
+    return exit_code;
   }
-  DdsOptions dds;
-  dds.domain = lease->domain();
-  auto dir = fs::temp_directory_path() / ("coins-bench-replay-" + std::to_string(getpid()));
-  fs::create_directories(dir);
-  std::vector<ChildProcess> shard;
-  auto child = ChildProcess::Spawn(
-      "replay-0",
-      {SelfDirectory() + "/coins-replay", "--id", "0", "--quiet-config", "--set", "run.shards=1", "--set",
-       "dds.domain=" + std::to_string(dds.domain), "--set", "replay.capacity=1000000", "--set",
-       "replay.status_period_s=0.1"},
-      (dir / "replay-0.log").string());
-  if (!child.ok()) {
-    std::cerr << "coins-bench-replay: " << child.status().message() << "\n";
-    return 1;
-  }
-  shard.push_back(std::move(*child));
+  const DdsOptions& dds = process->dds;
+  std::vector<ChildProcess>& shard = process->processes;
   auto node = dds::Node::Create(dds, "bench-replay");
   if (!node.ok()) return 1;
   auto collector = StatusCollector::Start(**node);
@@ -243,83 +299,14 @@ int Main(int argc, char** argv) {
   f.AddMedian("inserts_per_s_1_actor", one, "transitions/s");
   f.AddMedian("inserts_per_s_2_actors", two, "transitions/s");
 
-  // sampling over DDS from the filled shard
-  ReplayClientOptions co;
-  co.shards = 1;
-  co.timeout = 5s;
-  auto client = ReplayClient::Create(**node, co);
-  if (!client.ok() || !(*client)->WaitForShards(20s)) {
-    std::cerr << "coins-bench-replay: sampling client did not match the shard\n";
+  Status sampled = DdsSamplingFigures(a, **node, &f);
+  StopAll(shard, 10s);
+  fs::remove_all(process->dir);
+  if (!sampled.ok()) {
+    std::cerr << "coins-bench-replay: " << sampled.message() << "\n";
     return 1;
   }
-  rl::Batch batch;
-  for (auto [name, strategy, her] : {std::tuple{"uniform", msg::SAMPLE_UNIFORM, false},
-                                     std::tuple{"prioritized", msg::SAMPLE_PRIORITIZED, false},
-                                     std::tuple{"uniform_her", msg::SAMPLE_UNIFORM, true},
-                                     std::tuple{"prioritized_her", msg::SAMPLE_PRIORITIZED, true}}) {
-    auto& o = (*client)->options();
-    o.strategy = strategy;
-    o.her_strategy = her ? msg::HER_FUTURE : msg::HER_NONE;
-    o.her_ratio = her ? 0.8f : 0.0f;
-    o.goal_mask = her ? std::vector<float>{1.0f, 1.0f} : std::vector<float>{};
-    o.goal_epsilon = 0.5f;
-    std::vector<double> rates;
-    for (int r = 0; r < a.repeats; ++r) {
-      auto t0 = Clock::now();
-      uint64_t n = 0;
-      while (Since(t0) < a.seconds) {
-        Status s = (*client)->Sample(256, &batch);
-        if (!s.ok()) {
-          std::cerr << "coins-bench-replay: " << s.message() << "\n";
-          return 1;
-        }
-        // priorities move as a learner's would
-        if (strategy == msg::SAMPLE_PRIORITIZED) {
-          std::vector<float> p(batch.keys.size(), 0.5f + float(n % 7));
-          (*client)->UpdatePriorities(batch.keys, p);
-        }
-        n += 256;
-      }
-      rates.push_back(double(n) / Since(t0));
-    }
-    f.AddMedian(std::string("samples_per_s_") + name, rates, "transitions/s");
-  }
-  StopAll(shard, 10s);
-  fs::remove_all(dir);
-
-  // the sampler alone, in-process, on the same kind of data
-  {
-    ReplayOptions o;
-    o.capacity = 1'000'000;
-    ResumeReport rep;
-    auto s = ReplayService::Open(0, o, &rep);
-    msg::TransitionBatch b;
-    for (uint64_t seq = 0; seq < 4000; ++seq) {
-      b = *batches[seq % batches.size()];
-      b.seq(seq);
-      b.payload_hash(PayloadHash(b));
-      (*s)->Insert(b, 1s);
-    }
-    msg::SampleReply reply;
-    for (auto [name, strategy, her] : {std::tuple{"uniform", msg::SAMPLE_UNIFORM, false},
-                                       std::tuple{"prioritized", msg::SAMPLE_PRIORITIZED, false},
-                                       std::tuple{"uniform_her", msg::SAMPLE_UNIFORM, true},
-                                       std::tuple{"prioritized_her", msg::SAMPLE_PRIORITIZED, true}}) {
-      std::vector<double> rates;
-      auto q = Request(strategy, her);
-      for (int r = 0; r < a.repeats; ++r) {
-        auto t0 = Clock::now();
-        uint64_t n = 0;
-        while (Since(t0) < a.seconds / 2) {
-          (*s)->Sample(q, &reply, 1s);
-          n += reply.n();
-        }
-        rates.push_back(double(n) / Since(t0));
-      }
-      f.AddMedian(std::string("sampler_per_s_") + name, rates, "transitions/s");
-    }
-  }
-
+  SamplerFigures(a, batches, &f);
   SnapshotFigures(a, batches, &f);
   f.Print(a.json);
   return 0;

@@ -15,10 +15,10 @@
 #include <spdlog/spdlog.h>
 
 #include "actors/actor.h"
+#include "bench/replay_shard.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
 #include "common/cli_checks.h"
-#include "common/dds/domain_lease.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -58,10 +58,7 @@ int Main(int argc, char** argv) {
   CLI::App app("Actor step rate standalone and publishing to one replay shard over shared memory", "coins-bench-transport");
   app.add_option("--env", a.env, "environment");
   app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
-  app.add_option("--domain", a.domain,
-                 "DDS domain of the benchmark's processes (default: a free one of the test range, see "
-                 "common/dds/domain_lease.h)")
-      ->check(cli::Integer(0, 232));
+  bench::AddDomainOption(app, &a.domain);
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_flag("--json", a.json, "print one JSON object");
   app.add_option("--only", a.only, "measure only one kind (for profiling)")->check(CLI::IsMember({"standalone", "transport"}));
@@ -69,26 +66,15 @@ int Main(int argc, char** argv) {
   SetupLogging("bench", "warn");
 
   // one replay shard process on a private domain
-  auto lease = dds::DomainLease::Choose(int(a.domain));
-  if (!lease.ok()) {
-    std::cerr << "coins-bench-transport: " << lease.status().message() << "\n";
-    return 2;
+  int exit_code = 0;
+  auto process = bench::StartReplayShard("coins-bench-transport", int(a.domain),
+                                         {"run.env=" + a.env, "replay.capacity=300000"}, &exit_code);
+  if (!process.ok()) {
+    std::cerr << "coins-bench-transport: " << process.status().message() << "\n";
+    return exit_code;
   }
-  DdsOptions dds;
-  dds.domain = lease->domain();
-  auto dir = std::filesystem::temp_directory_path() / ("coins-bench-transport-" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  std::vector<ChildProcess> shard;
-  auto child = ChildProcess::Spawn(
-      "replay-0",
-      {SelfDirectory() + "/coins-replay", "--id", "0", "--quiet-config", "--set", "run.shards=1", "--set",
-       "run.env=" + a.env, "--set", "dds.domain=" + std::to_string(dds.domain), "--set", "replay.capacity=300000"},
-      (dir / "replay-0.log").string());
-  if (!child.ok()) {
-    std::cerr << "coins-bench-transport: " << child.status().message() << "\n";
-    return 1;
-  }
-  shard.push_back(std::move(*child));
+  const DdsOptions& dds = process->dds;
+  std::vector<ChildProcess>& shard = process->processes;
 
   // every wait is bounded: a shard that dies or stops acknowledging ends the benchmark
   bool stop = false;
@@ -121,7 +107,7 @@ int Main(int argc, char** argv) {
     std::cerr << "coins-bench-transport: the shard stopped acknowledging; figures are not valid\n";
     return 1;
   }
-  std::filesystem::remove_all(dir);
+  std::filesystem::remove_all(process->dir);
 
   Figures f;
   f.AddMedian("standalone_steps_per_s", standalone, "steps/s");

@@ -27,6 +27,21 @@ struct MlpOptions {
   Status Validate() const;
 };
 
+// the sizes of an Mlp: in, then the hidden layers, then out
+inline std::vector<int> LayerSizes(int in, const std::vector<int>& hidden, int out) {
+  std::vector<int> s = {in};
+  s.insert(s.end(), hidden.begin(), hidden.end());
+  s.push_back(out);
+  return s;
+}
+
+// out = [top; bottom] (rows stacked; both have the same columns), e.g. a critic's (obs, action)
+inline void StackRows(const Eigen::MatrixXf& top, const Eigen::MatrixXf& bottom, Eigen::MatrixXf* out) {
+  out->resize(top.rows() + bottom.rows(), top.cols());
+  out->topRows(top.rows()) = top;
+  out->bottomRows(bottom.rows()) = bottom;
+}
+
 class Mlp {
  public:
   Mlp() = default;

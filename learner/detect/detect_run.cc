@@ -52,20 +52,17 @@ Status DetectRequest::Validate() const {
   return options.Validate();
 }
 
-Result<nlohmann::json> RunDetect(const DetectRequest& req) {
-  COINS_RETURN_IF_ERROR(req.Validate());
-  Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv(req.env);
-  if (!env.ok()) return env.status().WithContext("--env");
-  const envs::EnvSpec& spec = (*env)->spec();
-  if (req.source != "Action" && spec.factor_index(req.source) < 0) {
-    std::string names;
-    for (const auto& f : spec.factors) names += (names.empty() ? "" : ", ") + f.name;
-    return Errorf("--source: env '{}' has no factor '{}' (factors: {})", req.env, req.source, names);
-  }
+namespace {
 
-  COINS_RETURN_IF_ERROR(CheckDataFits(req, spec));
+Status CheckSource(const DetectRequest& req, const envs::EnvSpec& spec) {
+  if (req.source == "Action" || spec.factor_index(req.source) >= 0) return Status::Ok();
+  std::string names;
+  for (const auto& f : spec.factors) names += (names.empty() ? "" : ", ") + f.name;
+  return Errorf("--source: env '{}' has no factor '{}' (factors: {})", req.env, req.source, names);
+}
 
-  // the targets: every uncontrolled factor unless given
+// the targets: every uncontrolled factor unless given; errors name a bad target
+Result<std::vector<std::string>> ResolveTargets(const DetectRequest& req, const envs::EnvSpec& spec) {
   std::vector<std::string> targets = req.targets;
   if (targets.empty()) {
     for (const auto& f : spec.factors) {
@@ -77,6 +74,155 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
     if (spec.factor_index(t) < 0) return Errorf("--targets: env '{}' has no factor '{}'", req.env, t);
     if (t == req.source) return Errorf("--targets: '{}' is the source", t);
   }
+  return targets;
+}
+
+// the effective options, for reproducing a run
+nlohmann::json OptionsJson(const DetectorOptions& o) {
+  return {{"passive_hidden", o.passive_hidden}, {"active_hidden", o.active_hidden}, {"lr", o.lr},
+          {"passive_steps", o.passive_steps}, {"passive_hard_steps", o.passive_hard_steps},
+          {"passive_hard_lambda", o.passive_hard_lambda}, {"active_steps", o.active_steps},
+          {"batch", o.batch}, {"min_std", o.min_std}, {"warm_start", o.warm_start},
+          {"source_action", o.source_action}, {"lambda", o.lambda},
+          {"close_distance", o.close_distance}, {"proximity_gate", o.proximity_gate},
+          {"eps_act", o.eps_act}, {"eps_pas", o.eps_pas}, {"eps_si", o.eps_si},
+          {"min_interactions", o.min_interactions}, {"counterfactual_draws", o.counterfactual_draws},
+          {"eps_cf", o.eps_cf}, {"eps_eta", o.eps_eta}, {"eps_eta_relative", o.eps_eta_relative},
+          {"n_disc", o.n_disc}, {"goal_dedup", o.goal_dedup}, {"seed", o.seed}};
+}
+
+// the linear Granger test on the data (also the optional screen): report["granger"] and the
+// p-value of each target
+Result<std::map<std::string, double>> RunGranger(const DetectRequest& req, const envs::EnvSpec& spec,
+                                                 const TransitionSet& data, const std::vector<std::string>& targets,
+                                                 nlohmann::json& report) {
+  std::map<std::string, double> p_values;
+  GrangerOptions go;
+  go.window = req.granger_window;
+  go.seed = req.seed;
+  auto t4 = std::chrono::steady_clock::now();
+  Result<std::vector<GrangerResult>> g = LinearGrangerTest(spec, data, req.source, targets, go);
+  if (!g.ok()) return g.status();
+  report["granger_seconds"] = Seconds(t4);
+  report["granger"] = nlohmann::json::array();
+  for (const GrangerResult& r : g.value()) {
+    p_values[r.target] = r.p_value;
+    report["granger"].push_back({{"target", r.target}, {"f_stat", Num(r.f_stat)},
+                                 {"p_value", Num(r.p_value)}, {"df1", r.df1}, {"df2", r.df2},
+                                 {"feature", r.feature}, {"causes", r.causes},
+                                 {"samples", r.samples}});
+  }
+  return p_values;
+}
+
+// a target screened out by the linear test: no neural models
+nlohmann::json ScreenedTarget(const DetectRequest& req, const envs::EnvSpec& spec, const std::string& target,
+                              double p_value) {
+  const envs::FactorSpec& f = spec.factors[spec.factor_index(target)];
+  nlohmann::json j = {{"target", target}, {"score", 0.0}, {"mg_score", nullptr},
+                      {"interactions", 0}, {"samples", 0}, {"features", f.feature_names},
+                      {"mask", std::vector<int>(f.features, 0)},
+                      {"mask_diff", std::vector<float>(f.features, 0.0f)},
+                      {"goal_set", nlohmann::json::array()}, {"goal_kind", "empty"},
+                      {"pass", false}, {"train_seconds", 0.0}, {"score_seconds", 0.0},
+                      {"screened", true},
+                      {"note", fmt::format("linear Granger p {:.3g} >= --screen {}", p_value, req.screen_alpha)}};
+  if (req.eval) {
+    j["fp_per_state"] = nullptr;
+    j["fn_per_interaction"] = nullptr;
+    j["true_interactions"] = 0;
+    j["detected"] = 0;
+    j["false_positives"] = 0;
+    j["false_negatives"] = 0;
+    j["fn_reasons"] = nlohmann::json::object();
+  }
+  return j;
+}
+
+// a target's scores, mask and goal set
+void AddScores(const PairScores& s, nlohmann::json& j) {
+  j["score"] = Num(s.score);
+  j["mg_score"] = Num(s.mg_score);
+  j["mean_ll_act"] = Num(s.mean_ll_act);
+  j["mean_ll_pas"] = Num(s.mean_ll_pas);
+  j["interactions"] = s.interactions;
+  j["samples"] = s.samples;
+  j["features"] = s.feature_names;
+  j["mask"] = s.mask;
+  j["mask_diff"] = s.mask_diff;
+  j["goal_kind"] = GoalKindName(s.goals.kind);
+  if (s.goals.kind == GoalSet::Kind::kContinuous) {
+    j["goal_set"] = {{"low", s.goals.low}, {"high", s.goals.high}};
+  } else {
+    j["goal_set"] = s.goals.goals;
+    j["goal_counts"] = s.goals.counts;
+  }
+  j["goal_unique_raw"] = s.goals.raw_unique;
+  j["pass"] = s.pass;
+  if (!s.note.empty()) j["note"] = s.note;
+}
+
+// the detector against the simulator's labels on the evaluation data
+void AddEvaluation(PairDetector& det, const envs::EnvSpec& spec, const TransitionSet& eval_data,
+                   nlohmann::json& j) {
+  auto t3 = std::chrono::steady_clock::now();
+  PairEvaluation e = det.Evaluate(spec, eval_data);
+  j["eval_seconds"] = Seconds(t3);
+  j["fp_per_state"] = e.has_truth ? Num(e.fp_per_state) : nlohmann::json();
+  j["fn_per_interaction"] = e.has_truth ? Num(e.fn_per_interaction) : nlohmann::json();
+  j["true_interactions"] = e.true_interactions;
+  j["detected"] = e.detected;
+  j["false_positives"] = e.false_positives;
+  j["false_negatives"] = e.false_negatives;
+  j["fn_reasons"] = {{"active_low", e.fn_act_low}, {"passive_high", e.fn_pas_high},
+                     {"far", e.fn_far}, {"counterfactual", e.fn_counterfactual}};
+}
+
+// trains the pair's detector on `train`, scores it on `scored` and evaluates it on eval_data
+// (when req.eval)
+Result<nlohmann::json> DetectTarget(const DetectRequest& req, const envs::EnvSpec& spec, const TransitionSet& train,
+                                    const TransitionSet& scored, const TransitionSet& eval_data,
+                                    const std::string& target) {
+  DetectorOptions opts = req.options;
+  if (req.paper_sizes) {
+    const DetectorOptions p = DefaultDetectorOptions(req.env, true, req.source, target);
+    if (p.active_hidden != DetectorOptions().active_hidden) {
+      opts.passive_hidden = p.passive_hidden;
+      opts.active_hidden = p.active_hidden;
+    }
+  }
+  auto t1 = std::chrono::steady_clock::now();
+  Result<PairDetector> det = PairDetector::Train(spec, train, req.source, target, opts);
+  if (!det.ok()) return det.status();
+  const double train_s = Seconds(t1);
+  auto t2 = std::chrono::steady_clock::now();
+  PairScores s = det->Score(scored);
+  const double score_s = Seconds(t2);
+  nlohmann::json j;
+  j["target"] = target;
+  AddScores(s, j);
+  j["hidden"] = opts.active_hidden;
+  j["train_seconds"] = train_s;
+  const PairDetector::TrainStats& ts = det->train_stats();
+  j["train"] = {{"samples", ts.samples}, {"passive_pool", ts.passive_pool},
+                {"upweighted", ts.upweighted}, {"passive_loss", ts.passive_loss},
+                {"active_loss", ts.active_loss}};
+  j["score_seconds"] = score_s;
+  if (req.eval) AddEvaluation(*det, spec, eval_data, j);
+  return j;
+}
+
+}  // namespace
+
+Result<nlohmann::json> RunDetect(const DetectRequest& req) {
+  COINS_RETURN_IF_ERROR(req.Validate());
+  Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv(req.env);
+  if (!env.ok()) return env.status().WithContext("--env");
+  const envs::EnvSpec& spec = (*env)->spec();
+  COINS_RETURN_IF_ERROR(CheckSource(req, spec));
+  COINS_RETURN_IF_ERROR(CheckDataFits(req, spec));
+  Result<std::vector<std::string>> targets = ResolveTargets(req, spec);
+  if (!targets.ok()) return targets.status();
 
   // collect the data
   auto t0 = std::chrono::steady_clock::now();
@@ -101,19 +247,7 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
   report["scored_states"] = scored.size();
   report["eps_si"] = req.options.eps_si;
   report["mask_rule"] = MaskRuleName(req.options.mask_rule);
-  // the effective options, for reproducing a run
-  const DetectorOptions& o = req.options;
-  report["options"] = {
-      {"passive_hidden", o.passive_hidden}, {"active_hidden", o.active_hidden}, {"lr", o.lr},
-      {"passive_steps", o.passive_steps}, {"passive_hard_steps", o.passive_hard_steps},
-      {"passive_hard_lambda", o.passive_hard_lambda}, {"active_steps", o.active_steps},
-      {"batch", o.batch}, {"min_std", o.min_std}, {"warm_start", o.warm_start},
-      {"source_action", o.source_action}, {"lambda", o.lambda},
-      {"close_distance", o.close_distance}, {"proximity_gate", o.proximity_gate},
-      {"eps_act", o.eps_act}, {"eps_pas", o.eps_pas}, {"eps_si", o.eps_si},
-      {"min_interactions", o.min_interactions}, {"counterfactual_draws", o.counterfactual_draws},
-      {"eps_cf", o.eps_cf}, {"eps_eta", o.eps_eta}, {"eps_eta_relative", o.eps_eta_relative},
-      {"n_disc", o.n_disc}, {"goal_dedup", o.goal_dedup}, {"seed", o.seed}};
+  report["options"] = OptionsJson(req.options);
 
   // a fresh evaluation set from another seed
   TransitionSet eval_data;
@@ -126,111 +260,23 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
     report["eval_states"] = eval_data.size();
   }
 
-  // the linear Granger test on the same data (also the optional screen)
   std::map<std::string, double> p_values;
   if (req.granger || req.screen_alpha > 0.0) {
-    GrangerOptions go;
-    go.window = req.granger_window;
-    go.seed = req.seed;
-    auto t4 = std::chrono::steady_clock::now();
-    Result<std::vector<GrangerResult>> g = LinearGrangerTest(spec, data.value(), req.source, targets, go);
-    if (!g.ok()) return g.status();
-    report["granger_seconds"] = Seconds(t4);
-    report["granger"] = nlohmann::json::array();
-    for (const GrangerResult& r : g.value()) {
-      p_values[r.target] = r.p_value;
-      report["granger"].push_back({{"target", r.target}, {"f_stat", Num(r.f_stat)},
-                                   {"p_value", Num(r.p_value)}, {"df1", r.df1}, {"df2", r.df2},
-                                   {"feature", r.feature}, {"causes", r.causes},
-                                   {"samples", r.samples}});
-    }
+    auto p = RunGranger(req, spec, data.value(), *targets, report);
+    if (!p.ok()) return p.status();
+    p_values = std::move(*p);
   }
   // train and score every target
   report["targets"] = nlohmann::json::array();
-  for (const std::string& target : targets) {
-    // screened out by the linear test: no neural models
+  for (const std::string& target : *targets) {
     if (req.screen_alpha > 0.0 && p_values[target] >= req.screen_alpha) {
-      const envs::FactorSpec& f = spec.factors[spec.factor_index(target)];
-      nlohmann::json j = {{"target", target}, {"score", 0.0}, {"mg_score", nullptr},
-                          {"interactions", 0}, {"samples", 0}, {"features", f.feature_names},
-                          {"mask", std::vector<int>(f.features, 0)},
-                          {"mask_diff", std::vector<float>(f.features, 0.0f)},
-                          {"goal_set", nlohmann::json::array()}, {"goal_kind", "empty"},
-                          {"pass", false}, {"train_seconds", 0.0}, {"score_seconds", 0.0},
-                          {"screened", true},
-                          {"note", fmt::format("linear Granger p {:.3g} >= --screen {}",
-                                               p_values[target], req.screen_alpha)}};
-      if (req.eval) {
-        j["fp_per_state"] = nullptr;
-        j["fn_per_interaction"] = nullptr;
-        j["true_interactions"] = 0;
-        j["detected"] = 0;
-        j["false_positives"] = 0;
-        j["false_negatives"] = 0;
-        j["fn_reasons"] = nlohmann::json::object();
-      }
-      report["targets"].push_back(std::move(j));
+      report["targets"].push_back(ScreenedTarget(req, spec, target, p_values[target]));
       continue;
     }
-    DetectorOptions opts = req.options;
-    if (req.paper_sizes) {
-      const DetectorOptions p = DefaultDetectorOptions(req.env, true, req.source, target);
-      if (p.active_hidden != DetectorOptions().active_hidden) {
-        opts.passive_hidden = p.passive_hidden;
-        opts.active_hidden = p.active_hidden;
-      }
-    }
-    auto t1 = std::chrono::steady_clock::now();
-    Result<PairDetector> det = PairDetector::Train(spec, train, req.source, target, opts);
-    if (!det.ok()) return det.status();
-    const double train_s = Seconds(t1);
-    auto t2 = std::chrono::steady_clock::now();
-    PairScores s = det->Score(scored);
-    const double score_s = Seconds(t2);
-    nlohmann::json j;
-    j["target"] = target;
-    j["score"] = Num(s.score);
-    j["mg_score"] = Num(s.mg_score);
-    j["mean_ll_act"] = Num(s.mean_ll_act);
-    j["mean_ll_pas"] = Num(s.mean_ll_pas);
-    j["interactions"] = s.interactions;
-    j["samples"] = s.samples;
-    j["features"] = s.feature_names;
-    j["mask"] = s.mask;
-    j["mask_diff"] = s.mask_diff;
-    j["goal_kind"] = GoalKindName(s.goals.kind);
-    if (s.goals.kind == GoalSet::Kind::kContinuous) {
-      j["goal_set"] = {{"low", s.goals.low}, {"high", s.goals.high}};
-    } else {
-      j["goal_set"] = s.goals.goals;
-      j["goal_counts"] = s.goals.counts;
-    }
-    j["goal_unique_raw"] = s.goals.raw_unique;
-    j["pass"] = s.pass;
-    j["hidden"] = opts.active_hidden;
-    j["train_seconds"] = train_s;
-    const PairDetector::TrainStats& ts = det->train_stats();
-    j["train"] = {{"samples", ts.samples}, {"passive_pool", ts.passive_pool},
-                  {"upweighted", ts.upweighted}, {"passive_loss", ts.passive_loss},
-                  {"active_loss", ts.active_loss}};
-    j["score_seconds"] = score_s;
-    if (!s.note.empty()) j["note"] = s.note;
-    if (req.eval) {
-      auto t3 = std::chrono::steady_clock::now();
-      PairEvaluation e = det->Evaluate(spec, eval_data);
-      j["eval_seconds"] = Seconds(t3);
-      j["fp_per_state"] = e.has_truth ? Num(e.fp_per_state) : nlohmann::json();
-      j["fn_per_interaction"] = e.has_truth ? Num(e.fn_per_interaction) : nlohmann::json();
-      j["true_interactions"] = e.true_interactions;
-      j["detected"] = e.detected;
-      j["false_positives"] = e.false_positives;
-      j["false_negatives"] = e.false_negatives;
-      j["fn_reasons"] = {{"active_low", e.fn_act_low}, {"passive_high", e.fn_pas_high},
-                         {"far", e.fn_far}, {"counterfactual", e.fn_counterfactual}};
-    }
-    report["targets"].push_back(std::move(j));
+    Result<nlohmann::json> j = DetectTarget(req, spec, train, scored, eval_data, target);
+    if (!j.ok()) return j.status();
+    report["targets"].push_back(std::move(*j));
   }
-
   return report;
 }
 

@@ -10,31 +10,17 @@
 #include "actors/collect.h"
 #include "actors/envs/env.h"
 #include "detector/interaction.h"
+#include "learner/detect/detector_test_data.h"
 
 namespace coins::detector {
 namespace {
 
 TransitionSet Collect(const std::string& env_name, const std::string& policy, int64_t steps,
                       uint64_t seed) {
-  Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv(env_name);
-  EXPECT_TRUE(env.ok());
-  CollectOptions co;
-  co.policy = policy;
-  co.steps = steps;
-  co.seed = seed;
-  Result<TransitionSet> data = CollectTransitions(**env, co);
-  EXPECT_TRUE(data.ok()) << data.status().message();
-  return std::move(data.value());
+  return testing::CollectFrom(env_name, policy, steps, seed);
 }
 
-DetectorOptions FastOptions() {
-  DetectorOptions o = DefaultDetectorOptions("breakout");
-  o.passive_steps = 1500;
-  o.passive_hard_steps = 1500;
-  o.active_steps = 3000;
-  o.seed = 7;
-  return o;
-}
+DetectorOptions FastOptions() { return testing::FastOptionsFor("breakout"); }
 
 PairScores TrainAndScore(const envs::EnvSpec& spec, const TransitionSet& train,
                          const TransitionSet& scored, const std::string& source,

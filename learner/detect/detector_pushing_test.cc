@@ -5,30 +5,16 @@
 #include "actors/collect.h"
 #include "actors/envs/env.h"
 #include "detector/interaction.h"
+#include "learner/detect/detector_test_data.h"
 
 namespace coins::detector {
 namespace {
 
 TransitionSet Collect(const std::string& policy, int64_t steps, uint64_t seed) {
-  Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv("pushing");
-  EXPECT_TRUE(env.ok());
-  CollectOptions co;
-  co.policy = policy;
-  co.steps = steps;
-  co.seed = seed;
-  Result<TransitionSet> data = CollectTransitions(**env, co);
-  EXPECT_TRUE(data.ok()) << data.status().message();
-  return std::move(data.value());
+  return testing::CollectFrom("pushing", policy, steps, seed);
 }
 
-DetectorOptions FastOptions() {
-  DetectorOptions o = DefaultDetectorOptions("pushing");
-  o.passive_steps = 1500;
-  o.passive_hard_steps = 1500;
-  o.active_steps = 3000;
-  o.seed = 7;
-  return o;
-}
+DetectorOptions FastOptions() { return testing::FastOptionsFor("pushing"); }
 
 TEST(PushingDetector, ActionGripperPassesWithContinuousXYZ) {
   auto env = envs::MakeEnv("pushing");

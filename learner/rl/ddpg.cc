@@ -21,12 +21,7 @@ Status DdpgOptions::Validate() const {
 Ddpg::Ddpg(DdpgOptions options) : options_(std::move(options)) {
   assert(options_.Validate().ok());
   const int od = options_.obs_dim, ad = options_.action_dim;
-  auto sizes = [&](int in, int out) {
-    std::vector<int> s = {in};
-    s.insert(s.end(), options_.hidden.begin(), options_.hidden.end());
-    s.push_back(out);
-    return s;
-  };
+  auto sizes = [&](int in, int out) { return nn::LayerSizes(in, options_.hidden, out); };
   actor_ = nn::Mlp({sizes(od, ad), options_.activation, nn::Activation::kTanh}, options_.seed);
   critic_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity},
                     options_.seed + 1);
@@ -38,11 +33,7 @@ Ddpg::Ddpg(DdpgOptions options) : options_(std::move(options)) {
                           critic_.params().size());
 }
 
-void Ddpg::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) {
-  sa_.resize(obs.rows() + act.rows(), obs.cols());
-  sa_.topRows(obs.rows()) = obs;
-  sa_.bottomRows(act.rows()) = act;
-}
+void Ddpg::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) { nn::StackRows(obs, act, &sa_); }
 
 void Ddpg::Act(std::span<const float> obs, bool explore, std::mt19937_64* rng,
                std::span<float> action) {

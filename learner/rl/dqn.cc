@@ -27,9 +27,8 @@ Status DqnOptions::Validate() const {
 
 Dqn::Dqn(DqnOptions options) : options_(std::move(options)) {
   assert(options_.Validate().ok());
-  std::vector<int> sizes = {options_.obs_dim};
-  sizes.insert(sizes.end(), options_.hidden.begin(), options_.hidden.end());
-  sizes.push_back((options_.dueling ? 1 + options_.num_actions : options_.num_actions) * atoms());
+  const std::vector<int> sizes = nn::LayerSizes(
+      options_.obs_dim, options_.hidden, (options_.dueling ? 1 + options_.num_actions : options_.num_actions) * atoms());
   online_ = nn::Mlp({sizes, options_.activation, nn::Activation::kIdentity}, options_.seed);
   target_ = online_;
   adam_ = nn::Adam({.lr = options_.lr, .clip_norm = options_.grad_clip}, online_.params().size());

@@ -98,6 +98,26 @@ Status PaddleSkillOptions::Validate() const {
   return d.Validate().WithContext("paddle skill");
 }
 
+namespace {
+
+// the skill's replay: 2-step returns, hindsight over the paddle's x
+MemoryReplayOptions ReplayOptionsFor(const PaddleSkillOptions& options, const PaddleView& view) {
+  MemoryReplayOptions ro;
+  ro.capacity = 100000;
+  ro.obs_dim = kObsDim - 1;  // the replay appends the (relabelled) goal
+  ro.action_dim = 1;
+  ro.n_step = 2;
+  ro.goal_dim = 1;
+  ro.goal_epsilon = view.Eps();
+  ro.goal_norm = GoalNorm::kL1;
+  ro.her = HerStrategy::kFuture;
+  ro.her_ratio = options.her_ratio;
+  ro.seed = options.seed + 1;
+  return ro;
+}
+
+}  // namespace
+
 Result<PaddleSkillResult> TrainPaddleSkill(const PaddleSkillOptions& options) {
   COINS_RETURN_IF_ERROR(options.Validate());
   auto env_or = envs::MakeEnv("breakout");
@@ -113,18 +133,7 @@ Result<PaddleSkillResult> TrainPaddleSkill(const PaddleSkillOptions& options) {
   dqn_options.obs_dim = kObsDim;
   dqn_options.seed = options.seed;
   Dqn dqn(dqn_options);
-  MemoryReplayOptions ro;
-  ro.capacity = 100000;
-  ro.obs_dim = kObsDim - 1;  // the replay appends the (relabelled) goal
-  ro.action_dim = 1;
-  ro.n_step = 2;
-  ro.goal_dim = 1;
-  ro.goal_epsilon = view.Eps();
-  ro.goal_norm = GoalNorm::kL1;
-  ro.her = HerStrategy::kFuture;
-  ro.her_ratio = options.her_ratio;
-  ro.seed = options.seed + 1;
-  MemoryReplay replay(ro);
+  MemoryReplay replay(ReplayOptionsFor(options, view));
 
   std::mt19937_64 rng(options.seed + 2), eval_rng(options.seed + 3);
   const size_t dim = size_t(env->spec().state_dim());

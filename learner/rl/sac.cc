@@ -29,12 +29,7 @@ Status SacOptions::Validate() const {
 Sac::Sac(SacOptions options) : options_(std::move(options)), rng_(options_.seed ^ 0x5ac) {
   assert(options_.Validate().ok());
   const int od = options_.obs_dim, ad = options_.action_dim;
-  auto sizes = [&](int in, int out) {
-    std::vector<int> s = {in};
-    s.insert(s.end(), options_.hidden.begin(), options_.hidden.end());
-    s.push_back(out);
-    return s;
-  };
+  auto sizes = [&](int in, int out) { return nn::LayerSizes(in, options_.hidden, out); };
   actor_ = nn::Mlp({sizes(od, 2 * ad), options_.activation, nn::Activation::kIdentity},
                    options_.seed);
   q1_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity},
@@ -54,11 +49,7 @@ Sac::Sac(SacOptions options) : options_(std::move(options)), rng_(options_.seed 
       std::isnan(options_.target_entropy) ? -float(ad) : options_.target_entropy;
 }
 
-void Sac::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) {
-  sa_.resize(obs.rows() + act.rows(), obs.cols());
-  sa_.topRows(obs.rows()) = obs;
-  sa_.bottomRows(act.rows()) = act;
-}
+void Sac::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) { nn::StackRows(obs, act, &sa_); }
 
 void Sac::Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng,
               std::span<float> action) {

@@ -5,17 +5,12 @@
 #include <unordered_set>
 
 #include "common/process.h"
+#include "common/splitmix.h"
 #include "detector/pair_space.h"
 
 namespace coins {
 
 namespace {
-
-uint64_t MixKey(uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
 
 void FillGoalSet(const detector::GoalSet& g, msg::InteractionScore* m) {
   m->goal_kind(detector::GoalKindName(g.kind));
@@ -73,7 +68,7 @@ Result<PairData> SamplePairData(SampleSource* source, const detector::PairSpace&
     const size_t F = c.feature_dim, A = c.action_dim;
     for (uint32_t i = 0; i < c.n; ++i) {
       if (!seen.insert(c.key[i]).second) continue;
-      detector::TransitionSet& into = MixKey(c.key[i]) % 1000 < cut ? d.held_out : d.train;
+      detector::TransitionSet& into = SplitMix64Mix(c.key[i]) % 1000 < cut ? d.held_out : d.train;
       into.Append({c.state.data() + i * F, F}, {c.action.data() + i * A, size_t(adim)}, {c.next_state.data() + i * F, F},
                   c.interactions[i], false);
     }

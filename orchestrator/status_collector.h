@@ -45,7 +45,8 @@ struct StatusView {
   uint64_t learner_reports = 0;                                     // LearnerStatus samples so far
   std::optional<Entry<msg::InteractionScores>> scores;              // the newest
 
-  // env steps of the run: the larger of what actors reported and what shards stored
+  // env steps of the run: the actors' reports over their restarts (the shards' stored counts
+  // only before any actor reported)
   uint64_t total_steps() const;
   double total_steps_per_s() const;
   // the actors' detector counts of the newest pair any of them reports

@@ -5,7 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <set>
+#include <string>
+#include <vector>
 
 #include "tests/process_harness.h"
 
@@ -87,6 +91,32 @@ TEST(TestDomains, AChildKeepsTheDomainAfterItsParentLetsGo) {
   ASSERT_EQ(waitpid(child, &status, 0), child);
   auto after = dds::DomainLease::AcquireExactly(domain);
   EXPECT_TRUE(after.ok()) << after.status().message();
+}
+
+
+// the shared-memory port files a killed process left on a domain are gone once the domain is
+// leased again; a file of a neighbouring domain's range stays
+TEST(TestDomains, ALeaseRemovesTheSharedMemoryPortsKilledProcessesLeft) {
+  auto first = dds::DomainLease::Acquire();
+  ASSERT_TRUE(first.ok()) << first.status().message();
+  const int domain = first->domain();
+  const int base = dds::kPortBase + dds::kDomainGain * domain;
+  const std::string dir = dds::kSharedMemoryDir;
+  const std::vector<std::string> stale = {
+      dir + "/fastrtps_port" + std::to_string(base), dir + "/fastrtps_port" + std::to_string(base + 12) + "_el",
+      dir + "/sem.fastrtps_port" + std::to_string(base + 12) + "_mutex",
+      dir + "/fastrtps_port" + std::to_string(base + dds::kDomainGain - 1)};
+  // a name of the range's form that no domain's port has: stays
+  const std::string other = dir + "/fastrtps_port" + std::to_string(base) + "x";
+  for (const auto& f : stale) std::ofstream(f) << "left by a killed participant";
+  std::ofstream(other) << "not a port";
+  *first = dds::DomainLease(std::move(*dds::DomainLease::Choose(-2)));  // let `domain` go, holding another
+  auto again = dds::DomainLease::AcquireExactly(domain);
+  ASSERT_TRUE(again.ok()) << again.status().message();
+  for (const auto& f : stale) EXPECT_FALSE(std::filesystem::exists(f)) << f;
+  EXPECT_TRUE(std::filesystem::exists(other));
+  std::filesystem::remove(other);
+  EXPECT_EQ(dds::RemoveStaleSharedMemoryPorts(domain), 0);
 }
 
 }  // namespace

@@ -57,9 +57,14 @@ struct CommandResult {
   int code;
   std::string output;
 };
-inline CommandResult RunCommand(const std::string& command) {
+// runs `command` through sh, output and errors together; after `limit` it is sent SIGTERM (and
+// SIGKILL 10 s later) and the code is timeout's 124 (137 when killed)
+inline CommandResult RunCommand(const std::string& command, std::chrono::seconds limit = std::chrono::seconds(240)) {
+  std::string quoted;
+  for (char c : command) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  const std::string bounded = "timeout -k 10 " + std::to_string(limit.count()) + " sh -c '" + quoted + "'";
   std::string out;
-  FILE* p = popen((command + " 2>&1").c_str(), "r");
+  FILE* p = popen((bounded + " 2>&1").c_str(), "r");
   char buf[4096];
   size_t n;
   while ((n = fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);

@@ -45,6 +45,18 @@ Status EnsureDir(const std::string& dir) {
 
 }  // namespace
 
+int RemoveStaleSharedMemoryPorts(int domain) {
+  const int base = kPortBase + kDomainGain * domain;
+  int removed = 0;
+  for (int port = base; port < base + kDomainGain; ++port) {
+    const std::string name = std::string(kSharedMemoryDir) + "/fastrtps_port" + std::to_string(port);
+    for (const std::string& path : {name, name + "_el", std::string(kSharedMemoryDir) + "/sem.fastrtps_port" +
+                                                            std::to_string(port) + "_mutex"})
+      removed += ::unlink(path.c_str()) == 0;
+  }
+  return removed;
+}
+
 std::string DomainLease::LockDir() {
   const char* env = std::getenv("COINS_DOMAIN_LOCK_DIR");
   return env && *env ? std::string(env) : std::string("/tmp/coins-dds-domains");
@@ -55,10 +67,9 @@ Result<DomainLease> DomainLease::Acquire(int first, int last) {
   const std::string dir = LockDir();
   COINS_RETURN_IF_ERROR(EnsureDir(dir));
   const int n = last - first + 1;
-  // the least recently leased domains first (a lease touches its lock file): a domain whose
-  // processes were killed may hold their shared-memory ports for a while, and Fast DDS 2.9
-  // mishandles a new participant taking over a killed one's port. Among equals, processes
-  // started together begin at different domains.
+  // the least recently leased domains first (a lease touches its lock file; the ports that
+  // killed processes left behind are removed when a domain is leased, see the header). Among
+  // equals, processes started together begin at different domains.
   const int start = int((uint64_t(::getpid()) * 7919u) % uint64_t(n));
   std::vector<std::pair<int64_t, int>> order;  // (last lease time, rotation index)
   for (int i = 0; i < n; ++i) {
@@ -75,6 +86,7 @@ Result<DomainLease> DomainLease::Acquire(int first, int last) {
     if (fd < 0) continue;  // e.g. another user's file without write access: skip that domain
     if (TryLock(fd)) {
       ::futimens(fd, nullptr);  // leased now
+      RemoveStaleSharedMemoryPorts(domain);
       return DomainLease(domain, fd);
     }
     ::close(fd);
@@ -93,6 +105,7 @@ Result<DomainLease> DomainLease::AcquireExactly(int domain) {
     return Errorf("DDS domain {} is in use by another test or benchmark (lock {}/domain-{}.lock)", domain, dir,
                   domain);
   }
+  RemoveStaleSharedMemoryPorts(domain);
   return DomainLease(domain, fd);
 }
 

@@ -19,6 +19,20 @@ namespace coins::dds {
 inline constexpr int kLeaseFirst = 120;
 inline constexpr int kLeaseLast = 219;
 
+// Fast DDS's well-known ports: domain d owns [kPortBase + kDomainGain * d, ... + kDomainGain)
+inline constexpr int kPortBase = 7400;
+inline constexpr int kDomainGain = 250;
+inline constexpr const char* kSharedMemoryDir = "/dev/shm";
+
+// Removes the shared-memory port files of `domain`'s ports (fastrtps_portN, its _el lock and
+// its sem.fastrtps_portN_mutex) and returns how many files went. A process killed -9 leaves
+// its ports behind, sometimes with their mutex held; Fast DDS 2.9 then lets a later participant
+// that takes over such a port hang or go unheard (seen: a test's actors matched with nobody, or
+// the orchestrator's commands reaching no one, for the whole test). Only safe while no live
+// process uses the domain: a lease calls it when it takes the domain, since every process that
+// used the domain under an earlier lease has ended (the lock is held by them all until then).
+int RemoveStaleSharedMemoryPorts(int domain);
+
 class DomainLease {
  public:
   // the least recently leased free domain of [first, last] (ties: from a per-process starting point);

@@ -33,7 +33,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   int action_dim = 1, goal_dim = 0;
   Actor::RowWidths(env.spec(), &action_dim, &goal_dim);
   HierarchyRunner runner(env.spec(), action_dim, goal_dim, o.seed ^ 0x6576616cULL);
-  runner.Configure(&models, acting, /*explore=*/false);
+  runner.Configure(&models, acting, /*explore=*/false, task ? o.task_explore : 0.0f);
   DiscardRows rows;
   const size_t dim = size_t(env.spec().state_dim());
   std::vector<float> state(dim), next(dim), action(size_t(env.spec().action.dim));

@@ -1,6 +1,11 @@
 // Evaluation of a hierarchy: greedy rollouts in an env of one's own (the learner's periodic
 // evaluations, `coins eval`, the final GIF of `coins run`).
 //
+// Every level acts greedily, except that a task level takes a uniformly random action with
+// probability `task_explore` (the usual small evaluation epsilon): a greedy task policy in a
+// deterministic env can fall into a cycle (the ball bouncing between the same places for ever,
+// blocks left) that one random angle breaks. Skills are always evaluated greedily.
+//
 // Task (the acting level is the task): `episodes` episodes, each from Reset(seed + i) (a fresh
 // board), until the env ends it or max_steps; the return is the sum of env rewards.
 // Skill (the acting level is a skill): its goals drawn at random, until `episodes` goals ended
@@ -22,6 +27,7 @@ struct EvalOptions {
   int episodes = 20;
   int64_t max_steps = 20000;  // per task episode; in all for a skill
   uint64_t seed = 1;
+  float task_explore = 0.0f;  // epsilon of a task level (see above)
 };
 
 struct EvalResult {

@@ -23,9 +23,10 @@ HierarchyRunner::HierarchyRunner(const envs::EnvSpec& spec, int action_dim, int 
   row_action_.resize(size_t(action_dim));
 }
 
-void HierarchyRunner::Configure(const HierarchyModels* models, int acting, bool explore) {
+void HierarchyRunner::Configure(const HierarchyModels* models, int acting, bool explore, float eval_explore) {
   models_ = models;
   explore_ = explore;
+  eval_explore_ = eval_explore;
   const int available = models ? models->contiguous() : 0;
   acting_ = std::clamp(acting, 0, available);
   if (size_t(acting_) > levels_.size()) levels_.resize(size_t(acting_));
@@ -71,7 +72,7 @@ void HierarchyRunner::StartEpisode(std::span<const float> state, RowSink* sink, 
 void HierarchyRunner::Act(int level, const float* obs, float* action) {
   LevelModel* m = models_->at(level);
   // the level being trained explores; the levels below it are frozen and act greedily
-  const float explore = explore_ && level == acting_ ? m->spec().explore : 0.0f;
+  const float explore = level != acting_ ? 0.0f : explore_ ? m->spec().explore : eval_explore_;
   if (!m->trained) {
     policy::RandomAction(m->spec(), &rng_, action);
     return;

@@ -75,8 +75,9 @@ class HierarchyRunner {
   HierarchyRunner(const envs::EnvSpec& spec, int action_dim, int goal_dim, uint64_t seed);
 
   // levels 1..acting run (acting 0: uniform random primitive actions; acting = top skill + 1 with
-  // a task spec: the task on top); explore false: greedy everywhere (evaluation)
-  void Configure(const HierarchyModels* models, int acting, bool explore);
+  // a task spec: the task on top); explore false: greedy everywhere (evaluation), except that
+  // the acting level then explores with `eval_explore` (a task's evaluation epsilon)
+  void Configure(const HierarchyModels* models, int acting, bool explore, float eval_explore = 0.0f);
   int acting() const { return acting_; }
 
   // opens new segments in every active stream at `state` (ROW_SEGMENT_START rows, with
@@ -125,6 +126,7 @@ class HierarchyRunner {
   const HierarchyModels* models_ = nullptr;
   int acting_ = 0;
   bool explore_ = true;
+  float eval_explore_ = 0.0f;
   std::vector<LevelState> levels_;  // index level - 1
   std::vector<Ends> ends_;
   std::vector<float> features_, obs_, achieved_, full_goal_, zero_action_, row_action_;

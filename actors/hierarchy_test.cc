@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "actors/actor.h"
@@ -166,6 +167,51 @@ TEST(Hierarchy, SecondLevelDecidesEveryThreeStepsAndWritesItsOwnStream) {
     EXPECT_TRUE(std::abs(row.goal[2]) == 1.0f || std::abs(row.goal[2]) == 2.0f);
   }
   EXPECT_GT(decisions, 900);
+}
+
+// the share of a level's decisions in a rollout that equal its net's greedy choice. Rows hold
+// the state after a decision: the decision was taken at the stream's previous row's state,
+// towards the goal the row carries.
+double GreedyShare(const HierarchyModels& models, const Recorder& rec, int stream, int level) {
+  const policy::LevelSpec& spec = models.at(level)->spec();
+  std::vector<float> features(spec.obs_index.size()), goal(size_t(spec.goal.dim())), obs(size_t(spec.obs_dim()));
+  std::mt19937_64 rng(1);
+  const std::vector<float>* before = nullptr;
+  int decisions = 0, greedy = 0;
+  for (const auto& row : rec.rows) {
+    if (row.stream != stream) continue;
+    if (before && !(row.flags & msg::ROW_SEGMENT_START)) {
+      for (size_t i = 0; i < goal.size(); ++i) goal[i] = row.goal[size_t(spec.goal.masked[i])];
+      policy::GatherFeatures(spec, before->data(), features.data());
+      policy::BuildObservation(spec, features.data(), goal.data(), obs.data());
+      float action = -1;
+      models.at(level)->net.Act(obs.data(), 0.0f, &rng, &action);
+      ++decisions;
+      greedy += action == row.action[0];
+    }
+    before = &row.state;
+  }
+  EXPECT_GT(decisions, 150) << "stream " << stream;
+  return decisions ? double(greedy) / decisions : 0.0;
+}
+
+TEST(Hierarchy, EvaluationEpsilonRandomisesOnlyTheActingLevel) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  HierarchyModels models = Models({Paddle(spec), Ball(spec)});
+  for (auto& level : models.levels) level->trained = true;  // act with the nets, not at random
+  int action_dim, goal_dim;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  for (float eps : {0.0f, 0.6f}) {
+    HierarchyRunner runner(spec, action_dim, goal_dim, 3);
+    runner.Configure(&models, 2, /*explore=*/false, eps);
+    const Recorder rec = RunSteps(**env, runner, 1500);
+    // the paddle skill below stays greedy; the acting ball level is random in eps of its
+    // decisions (a random pick of 3 offsets is the greedy one a third of the time)
+    EXPECT_EQ(GreedyShare(models, rec, 0, 1), 1.0) << eps;
+    const double expected = 1.0 - eps + eps / 3.0;
+    EXPECT_NEAR(GreedyShare(models, rec, 2, 2), expected, eps > 0 ? 0.1 : 0.0) << eps;
+  }
 }
 
 }  // namespace

@@ -136,7 +136,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
   nlohmann::json j = {{"run_dir", f.run_dir}, {"checkpoint", checkpoint},     {"env", env},
                       {"level", level},       {"policy", spec.name},      {"episodes", r.returns.size()},
                       {"return_mean", r.return_mean}, {"return_sd", r.return_sd}, {"returns", r.returns},
-                      {"goals", r.goals_ended}, {"success", r.success}, {"steps", r.steps}};
+                      {"goals", r.goals_ended}, {"success", r.success}, {"steps", r.steps},
+                      {"explore", spec.is_task() ? f.explore : 0.0}};
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
   if (f.json) {
@@ -145,8 +146,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
   }
   std::cout << fmt::format("{} on {} ({}):", spec.name, env, checkpoint) << "\n";
   if (spec.is_task())
-    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes", r.return_mean, r.return_sd,
-                             r.returns.size())
+    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes (task epsilon {})", r.return_mean,
+                             r.return_sd, r.returns.size(), f.explore)
               << "\n";
   std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r.success,
                            r.goals_reached, r.goals_ended, r.steps)
@@ -183,7 +184,7 @@ Status RunEval(const EvalFlags& f) {
 
   EvalRecorder recorder(f, **env);
   COINS_RETURN_IF_ERROR(recorder.Open());
-  EvalOptions eo{f.episodes, f.max_steps, f.seed};
+  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore)};
   auto r = Evaluate(**env, **models, level, eo, [&](const EvalStep& s) { recorder.OnStep(s); });
   if (!r.ok()) return r.status();
   COINS_RETURN_IF_ERROR(recorder.Finish());
@@ -203,6 +204,8 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--episodes", f->episodes, "episodes (task) or goals (skill)")->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", f->seed, "first episode's seed");
   cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")->check(CLI::Range(int64_t(1), int64_t(1) << 30));
+  cmd->add_option("--explore", f->explore, "the task level's epsilon (skills act greedily); 0: greedy")
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--epoch", f->epoch, "checkpoint epoch (default: the newest)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", f->out, "write the rollout as JSON lines (the `coins env rollout` format)");
   cmd->add_option("--gif", f->gif, "write the first --gif-steps steps as a GIF");

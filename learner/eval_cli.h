@@ -1,7 +1,7 @@
-// `coins eval RUN_DIR`: runs the greedy task policy of a run (or one of its skills with random
-// goals) from its newest learner checkpoint and reports the return's mean and standard
-// deviation, the top skill's success (ball-angle accuracy in Breakout), optionally the rollout
-// in the `coins env rollout` format and a GIF.
+// `coins eval RUN_DIR`: runs the task policy of a run (greedy but for its --explore epsilon)
+// or one of its skills with random goals (greedy) from its newest learner checkpoint, and
+// reports the return's mean and standard deviation, the top skill's success (ball-angle
+// accuracy in Breakout), optionally the rollout in the `coins env rollout` format and a GIF.
 #pragma once
 
 #include <cstdint>
@@ -20,6 +20,7 @@ struct EvalFlags {
   int episodes = 20;
   uint64_t seed = 1;
   int64_t max_steps = 20000;
+  double explore = 0.05;     // the task level's epsilon (learner.eval_task_explore's default)
   int64_t epoch = -1;        // -1: the newest checkpoint
   std::string out;           // rollout JSON lines
   std::string gif;

@@ -267,6 +267,7 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
   o.episodes = int(task ? options_.eval_episodes : options_.eval_goals);
   o.max_steps = task ? options_.eval_max_steps : options_.eval_max_steps * 10;
   o.seed = seed_ + 7919 + env_steps;
+  o.task_explore = float(options_.eval_task_explore);
   auto r = coins::Evaluate(**env, **models, train_level_, o);
   if (!r.ok()) return r.status().WithContext("evaluation");
   const policy::LevelSpec& spec = specs_[size_t(train_level_) - 1];

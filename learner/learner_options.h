@@ -67,6 +67,9 @@ struct LearnerOptions {
   int64_t eval_episodes = 20;
   int64_t eval_goals = 100;
   int64_t eval_max_steps = 20000;     // env steps at most per evaluation episode
+  // the task level's epsilon in evaluations (skills are evaluated greedily): breaks the cycles
+  // a greedy task policy can fall into in a deterministic env (actors/evaluate.h)
+  double eval_task_explore = 0.05;
   // checkpoints go to RUN_DIR/checkpoints
   int64_t checkpoint_keep = 3;
 

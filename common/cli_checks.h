@@ -5,9 +5,15 @@
 // CLI11 converts it, and their one-line messages name the bounds and the value:
 //   --steps: must be an integer in [1, 100000000], got '1e30'
 // The Parse* forms serve hand-written argument loops (the benchmarks).
+//
+// Fail() is how every `coins` subcommand reports a failure: one line on stderr,
+//   coins detect: --source: env 'breakout' has no factor 'Nope' (factors: ...)
+// then CLI::RuntimeError(code), which CLI11's App::exit turns into the exit code without
+// printing anything more (code 2: bad input or a refused request; 1: a failure while running).
 #pragma once
 
 #include <charconv>
+#include <iostream>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -20,6 +26,14 @@
 #include "common/status.h"
 
 namespace coins::cli {
+
+[[noreturn]] inline void Fail(std::string_view command, std::string_view message, int code) {
+  std::cerr << "coins " << command << ": " << message << "\n";
+  throw CLI::RuntimeError(code);
+}
+inline void FailIf(std::string_view command, const Status& status, int code) {
+  if (!status.ok()) Fail(command, status.message(), code);
+}
 
 // a decimal integer (optional '-'), no overflow, within [min, max]
 inline Result<int64_t> ParseInteger(std::string_view text, int64_t min, int64_t max) {

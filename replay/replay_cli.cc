@@ -20,11 +20,6 @@
 namespace coins {
 namespace {
 
-[[noreturn]] void Fail(const std::string& command, const std::string& message, int code) {
-  std::cerr << command << ": " << message << "\n";
-  throw CLI::RuntimeError(code);
-}
-
 void RunInspect(const std::string& path, bool json) {
   SnapshotImage img;
   Status s = InspectSnapshot(path, &img);
@@ -72,20 +67,20 @@ struct SnapshotFlags {
 };
 
 void RunSnapshot(const SnapshotFlags& f) {
-  const std::string cmd = "coins snapshot";
+  const std::string cmd = "snapshot";
   DdsOptions dds;
   RunOptions run;
   ConfigLoader loader({ConfigSection::Of("dds", dds), ConfigSection::Of("run", run)});
   Status s = f.config.empty() ? Status::Ok() : loader.LoadFile(f.config);
   if (s.ok() && f.domain >= 0) s = loader.ApplyOverride(fmt::format("dds.domain={}", f.domain));
-  if (!s.ok()) Fail(cmd, s.message(), 2);
+  if (!s.ok()) cli::Fail(cmd, s.message(), 2);
   const int64_t want = f.shards > 0 ? f.shards : (f.target == "replay" || f.target == "all" ? run.shards : 1);
   SetupLogging("coins-snapshot", "warn");
   auto node = dds::Node::Create(dds, "coins-snapshot");
-  if (!node.ok()) Fail(cmd, node.status().message(), 1);
+  if (!node.ok()) cli::Fail(cmd, node.status().message(), 1);
   auto writer = (*node)->MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos());
   auto stats = (*node)->MakeReader<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusReaderQos());
-  if (!writer.ok() || !stats.ok()) Fail(cmd, "cannot open DDS topics", 1);
+  if (!writer.ok() || !stats.ok()) cli::Fail(cmd, "cannot open DDS topics", 1);
 
   // a command id no earlier command used: time-based with random low bits
   uint64_t id = (uint64_t(std::chrono::system_clock::now().time_since_epoch().count()) & ~uint64_t(0xffff)) |
@@ -117,7 +112,7 @@ void RunSnapshot(const SnapshotFlags& f) {
     });
   }
   if (int64_t(done.size()) < want)
-    Fail(cmd, fmt::format("{} of {} shards reported the snapshot within {} s ({} shards seen)", done.size(), want,
+    cli::Fail(cmd, fmt::format("{} of {} shards reported the snapshot within {} s ({} shards seen)", done.size(), want,
                           f.timeout, seen.size()),
          1);
 }

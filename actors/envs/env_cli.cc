@@ -85,11 +85,6 @@ void RandomAction(const ActionSpec& a, Rng& rng, std::vector<float>* out) {
   for (int i = 0; i < a.dim; ++i) (*out)[i] = static_cast<float>(rng.Uniform(a.low[i], a.high[i]));
 }
 
-void Check(const Status& st) {
-  if (st.ok()) return;
-  std::fprintf(stderr, "error: %s\n", st.message().c_str());
-  throw CLI::RuntimeError(1);
-}
 
 }  // namespace
 
@@ -248,7 +243,7 @@ void AddEnvCommands(CLI::App& app) {
   auto json = std::make_shared<bool>(false);
   CLI::App* list = env->add_subcommand("list", "List the envs: factors, action spaces, interactions");
   list->add_flag("--json", *json, "Print one JSON array instead of text");
-  list->callback([json] { Check(RunList(*json)); });
+  list->callback([json] { cli::FailIf("env list", RunList(*json), 1); });
 
   // rollout
   auto ro = std::make_shared<RolloutOptions>();
@@ -264,7 +259,7 @@ void AddEnvCommands(CLI::App& app) {
   rollout->add_option("--steps", ro->steps, "Number of steps (with --actions: at most this many)")
       ->check(cli::Integer(1, std::numeric_limits<int>::max()));
   rollout->add_option("--out", ro->out, "Output file (JSON lines)")->required();
-  rollout->callback([ro] { Check(RunRollout(*ro)); });
+  rollout->callback([ro] { cli::FailIf("env rollout", RunRollout(*ro), 1); });
 
   // render
   auto rd = std::make_shared<RenderOptions>();
@@ -278,7 +273,7 @@ void AddEnvCommands(CLI::App& app) {
   render->add_option("--width", rd->width, "Pushing: image width (<= 640)")->check(CLI::Range(16, 640));
   render->add_option("--height", rd->height, "Pushing: image height (<= 480)")->check(CLI::Range(16, 480));
   render->add_option("--delay", rd->delay_cs, "GIF frame delay in 1/100 s")->check(CLI::Range(1, 1000));
-  render->callback([rd] { Check(RunRender(*rd)); });
+  render->callback([rd] { cli::FailIf("env render", RunRender(*rd), 1); });
 }
 
 }  // namespace coins::envs

@@ -47,10 +47,6 @@ const CLI::Validator kNonNegative = NumberAtLeast(0, false, false);
 constexpr int64_t kMaxSteps = std::numeric_limits<int32_t>::max();
 constexpr int64_t kMaxTrainSteps = 100'000'000;
 
-void Fail(const Status& st) {
-  std::fprintf(stderr, "error: %s\n", st.message().c_str());
-  throw CLI::RuntimeError(1);
-}
 
 void Run(CliState& c) {
   // options: env defaults, then the flags
@@ -73,7 +69,7 @@ void Run(CliState& c) {
   c.req.options = o;
   c.req.paper_sizes = c.paper_sizes;
   Result<nlohmann::json> r = RunDetect(c.req);
-  if (!r.ok()) Fail(r.status());
+  if (!r.ok()) cli::Fail("detect", r.status().message(), 1);
   if (c.json) {
     std::printf("%s\n", r->dump().c_str());
   } else {

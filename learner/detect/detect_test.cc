@@ -136,8 +136,8 @@ TEST(DetectCli, HugeOrNonFiniteNumbersAreOneLineErrorsNotAborts) {
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
   EXPECT_NE(big.find("RuntimeError"), std::string::npos) << big;
   EXPECT_NE(eval.find("RuntimeError"), std::string::npos) << eval;
-  EXPECT_NE(err.find("error: --steps 100000000: the data would take about"), std::string::npos) << err;
-  EXPECT_NE(err.find("error: --steps 1000 and --eval-steps 2147483647: the data would take about"), std::string::npos)
+  EXPECT_NE(err.find("coins detect: --steps 100000000: the data would take about"), std::string::npos) << err;
+  EXPECT_NE(err.find("coins detect: --steps 1000 and --eval-steps 2147483647: the data would take about"), std::string::npos)
       << err;
   EXPECT_NE(err.find("of memory; use fewer steps"), std::string::npos) << err;
 }

@@ -31,6 +31,18 @@ namespace coins::dds {
 
 namespace fdds = eprosima::fastdds::dds;
 
+// ThreadSanitizer happens-before annotations (no-ops in other builds): what a thread did before
+// TsanPublished(p) happens before what another does after TsanReceived(p)
+#if defined(__SANITIZE_THREAD__)
+extern "C" void __tsan_acquire(void* addr);
+extern "C" void __tsan_release(void* addr);
+inline void TsanPublished(void* p) { __tsan_release(p); }
+inline void TsanReceived(void* p) { __tsan_acquire(p); }
+#else
+inline void TsanPublished(void*) {}
+inline void TsanReceived(void*) {}
+#endif
+
 eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d);
 // the partition name of replay shard k
 std::string ShardPartition(int64_t shard);
@@ -41,10 +53,16 @@ std::string ShardPartition(int64_t shard);
 // topic: a process that writes and reads a keyed topic (heartbeats in the orchestrator) then
 // computes keys on its own thread and on the DDS receive thread into the same buffer (found by
 // ThreadSanitizer). Node registers every type through this wrapper.
+//
+// Fast DDS hands the type object to its own threads through its internal atomics, which a
+// ThreadSanitizer build cannot see (the library is not instrumented): the constructor and
+// getKey tell it that construction happens before any getKey (TsanPublished/TsanReceived).
 template <typename PubSubType>
 class KeySafeType final : public PubSubType {
  public:
+  KeySafeType() { TsanPublished(this); }
   bool getKey(void* data, eprosima::fastrtps::rtps::InstanceHandle_t* handle, bool force_md5) override {
+    TsanReceived(this);
     std::lock_guard<std::mutex> lock(key_mu_);
     return PubSubType::getKey(data, handle, force_md5);
   }

@@ -26,7 +26,9 @@ TEST(ExampleConfig, ListsEveryKeyWithItsDefault) {
   const ConfigValues want = defaults.Values(), got = loaded.Values();
   for (const auto& [key, value] : want) {
     EXPECT_TRUE(listed.count(key)) << key << " (default " << value << ") is missing from " << COINS_EXAMPLE_CONFIG;
-    if (!kSetByTheExample.count(key)) EXPECT_EQ(got.at(key), value) << key << " is not its default";
+    if (!kSetByTheExample.count(key)) {
+      EXPECT_EQ(got.at(key), value) << key << " is not its default";
+    }
   }
 }
 

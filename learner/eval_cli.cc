@@ -11,6 +11,7 @@
 #include "actors/envs/render.h"
 #include "actors/envs/rollout_format.h"
 #include "actors/evaluate.h"
+#include "common/cli_checks.h"
 #include "common/config/config.h"
 #include "common/run_options.h"
 #include "learner/learner_core.h"
@@ -205,7 +206,7 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--seed", f->seed, "first episode's seed");
   cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")->check(CLI::Range(int64_t(1), int64_t(1) << 30));
   cmd->add_option("--explore", f->explore, "the task level's epsilon (skills act greedily); 0: greedy")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(cli::Finite(0.0, 1.0));
   cmd->add_option("--epoch", f->epoch, "checkpoint epoch (default: the newest)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", f->out, "write the rollout as JSON lines (the `coins env rollout` format)");
   cmd->add_option("--gif", f->gif, "write the first --gif-steps steps as a GIF");

@@ -75,6 +75,13 @@ TEST(Cli, AShardLargerThanTheMachineIsRefusedBeforeStarting) {
                      "more than 90% of this machine's", "coins-replay");
 }
 
+TEST(Cli, AnEvalEpsilonOutsideZeroToOneIsRefused) {
+  for (const char* value : {"nan", "inf", "-0.1", "1.5"})
+    ExpectOneLineError(RunCommand(Bin("coins") + " eval /nonexistent --explore " + value),
+                       std::string("--explore: must be a finite number in [0, 1], got '") + value + "'",
+                       std::string("eval --explore ") + value);
+}
+
 TEST(Cli, BadNumbersToTheBenchmarksAreErrorsNotHangs) {
   auto t0 = std::chrono::steady_clock::now();
   for (const char* bench : {"transport", "replay"})

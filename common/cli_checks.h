@@ -13,9 +13,9 @@
 #pragma once
 
 #include <charconv>
-#include <iostream>
 #include <cmath>
 #include <cstdint>
+#include <iostream>
 #include <limits>
 #include <string>
 #include <string_view>

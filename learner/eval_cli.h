@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/status.h"
+#include "learner/learner_options.h"
 
 namespace coins {
 
@@ -20,7 +21,7 @@ struct EvalFlags {
   int episodes = 20;
   uint64_t seed = 1;
   int64_t max_steps = 20000;
-  double explore = 0.05;     // the task level's epsilon (learner.eval_task_explore's default)
+  double explore = LearnerOptions{}.eval_task_explore;  // the task level's epsilon
   int64_t epoch = -1;        // -1: the newest checkpoint
   std::string out;           // rollout JSON lines
   std::string gif;

@@ -112,9 +112,10 @@ void RunSnapshot(const SnapshotFlags& f) {
     });
   }
   if (int64_t(done.size()) < want)
-    cli::Fail(cmd, fmt::format("{} of {} shards reported the snapshot within {} s ({} shards seen)", done.size(), want,
+    cli::Fail(cmd,
+              fmt::format("{} of {} shards reported the snapshot within {} s ({} shards seen)", done.size(), want,
                           f.timeout, seen.size()),
-         1);
+              1);
 }
 
 }  // namespace

@@ -85,7 +85,6 @@ void RandomAction(const ActionSpec& a, Rng& rng, std::vector<float>* out) {
   for (int i = 0; i < a.dim; ++i) (*out)[i] = static_cast<float>(rng.Uniform(a.low[i], a.high[i]));
 }
 
-
 }  // namespace
 
 Status RunList(bool json) {

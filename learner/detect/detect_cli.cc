@@ -47,7 +47,6 @@ const CLI::Validator kNonNegative = NumberAtLeast(0, false, false);
 constexpr int64_t kMaxSteps = std::numeric_limits<int32_t>::max();
 constexpr int64_t kMaxTrainSteps = 100'000'000;
 
-
 void Run(CliState& c) {
   // options: env defaults, then the flags
   DetectorOptions o = DefaultDetectorOptions(c.req.env, false);

@@ -25,7 +25,7 @@ GaussianModel::GaussianModel(const GaussianModelOptions& options, uint64_t seed)
 
 float GaussianModel::Train(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target,
                            const std::vector<int64_t>& pool, const std::vector<float>& weights,
-                           int steps, int batch, uint64_t seed) {
+                           int steps, int batch, uint64_t seed, const std::function<bool()>& stop) {
   assert(weights.empty() || weights.size() == pool.size());
   if (pool.empty()) return 0.0f;
   std::mt19937_64 rng(seed);
@@ -44,6 +44,7 @@ float GaussianModel::Train(const Eigen::MatrixXf& in, const Eigen::MatrixXf& tar
   std::uniform_int_distribution<size_t> uni(0, pool.size() - 1);
   std::uniform_real_distribution<double> ur(0.0, cum.empty() ? 1.0 : cum.back());
   for (int step = 0; step < steps; ++step) {
+    if (stop && step % 64 == 0 && stop()) break;
     // draw a batch
     for (int b = 0; b < batch; ++b) {
       size_t k;

@@ -51,8 +51,10 @@ Status PairDetector::LoadWeights(std::span<const uint8_t> blob) {
 
 Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const TransitionSet& data,
                                          const std::string& source, const std::string& target,
-                                         const DetectorOptions& options) {
+                                         const DetectorOptions& options, const std::function<bool()>& stop) {
   COINS_RETURN_IF_ERROR(options.Validate());
+  auto stopped = [&] { return stop && stop(); };
+  auto stopped_error = [&] { return Errorf("not ready: stopped while training the {}->{} models", source, target); };
   Result<PairLayout> layout = FitPairLayout(spec, data, source, target, options);
   if (!layout.ok()) return layout.status();
   PairDetector det;
@@ -76,7 +78,8 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
     for (int64_t j = 0; j < m; ++j) pool.push_back(j);
   }
   det.passive_.Train(s.passive_in, s.target, pool, {}, options.passive_steps, options.batch,
-                     options.seed + 2);
+                     options.seed + 2, stop);
+  if (stopped()) return stopped_error();
 
   det.stats_.passive_pool = int64_t(pool.size());
 
@@ -97,7 +100,8 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
     }
     det.stats_.passive_loss = det.passive_.Train(s.passive_in, s.target, pool, pw,
                                                  options.passive_hard_steps, options.batch,
-                                                 options.seed + 5);
+                                                 options.seed + 5, stop);
+    if (stopped()) return stopped_error();
   }
 
   // active model, up-sampling close transitions the passive model gets wrong
@@ -111,7 +115,8 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
   }
   det.active_ = std::move(active);
   det.stats_.active_loss = det.active_.Train(s.active_in, s.target, pool, w,
-                                             options.active_steps, options.batch, options.seed + 4);
+                                             options.active_steps, options.batch, options.seed + 4, stop);
+  if (stopped()) return stopped_error();
   det.stats_.samples = m;
   for (float wj : w) det.stats_.upweighted += wj > 1.0f;
   return det;

@@ -21,6 +21,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -71,10 +72,12 @@ class PairDetector {
   };
   enum : uint8_t { kWhyActLow = 1, kWhyPasHigh = 2, kWhyFar = 4, kWhyCounterfactual = 8 };
 
-  // errors come from FitPairLayout and DetectorOptions::Validate
+  // errors come from FitPairLayout and DetectorOptions::Validate; stop (optional) is asked
+  // during training, and when it says true Train ends early with a "not ready: stopped" error
   static Result<PairDetector> Train(const envs::EnvSpec& spec, const TransitionSet& data,
                                     const std::string& source, const std::string& target,
-                                    const DetectorOptions& options);
+                                    const DetectorOptions& options,
+                                    const std::function<bool()>& stop = nullptr);
 
   // an untrained detector with this layout (e.g. to load published weights into)
   static Result<PairDetector> Create(const PairLayout& layout, const DetectorOptions& options);

@@ -68,6 +68,24 @@ TEST(PairDetector, WeightsRoundTripThroughABlob) {
   EXPECT_NE(st.message().find("Action->Paddle"), std::string::npos) << st.message();
 }
 
+TEST(PairDetector, AStopRequestEndsTrainingWithANotReadyError) {
+  auto env = envs::MakeEnv("breakout");
+  CollectOptions co;
+  co.steps = 2000;
+  Result<TransitionSet> d = CollectTransitions(**env, co);
+  ASSERT_TRUE(d.ok());
+  DetectorOptions o;
+  o.passive_steps = o.active_steps = 10'000'000;  // hours of training unless stopped
+  int asked = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  Result<PairDetector> det =
+      PairDetector::Train((*env)->spec(), *d, "Paddle", "Ball", o, [&] { return ++asked > 3; });
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(20));
+  ASSERT_FALSE(det.ok());
+  EXPECT_EQ(det.status().message(), "not ready: stopped while training the Paddle->Ball models");
+  EXPECT_EQ(asked, 5);  // three answers of "go on" (64 steps each), the stop, then the check after
+}
+
 // parses args as `detect ...`; returns the exception message, or "" when it ran
 std::string RunCli(std::vector<std::string> args) {
   CLI::App app{"test"};

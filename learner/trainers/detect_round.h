@@ -44,7 +44,9 @@ Result<PairData> SamplePairData(SampleSource* source, const detector::PairSpace&
                                 const DetectRoundOptions& options);
 
 // rows_available: primitive transitions replay holds (sizes the sample: twice as many draws,
-// since draws repeat rows)
+// since draws repeat rows). A process stop (StopRequested) ends the round between targets or
+// within 64 Adam steps of a target's training with a "not ready" error: the round has no
+// result, and the learner treats it as waiting, not failed.
 Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const envs::EnvSpec& env,
                                                    const std::string& source_factor,
                                                    const std::vector<std::string>& targets, int64_t rows_available,

@@ -66,30 +66,6 @@ PairLayout ReadLayout(const nlohmann::json& j) {
   return L;
 }
 
-// the options the interaction test and the models' shapes depend on
-nlohmann::json OptionsJson(const DetectorOptions& o) {
-  return {{"passive_hidden", o.passive_hidden}, {"active_hidden", o.active_hidden},
-          {"min_std", o.min_std},               {"eps_act", o.eps_act},
-          {"eps_pas", o.eps_pas},               {"proximity_gate", o.proximity_gate},
-          {"counterfactual_draws", o.counterfactual_draws}, {"eps_cf", o.eps_cf},
-          {"close_distance", o.close_distance}, {"seed", o.seed}};
-}
-
-DetectorOptions ReadOptions(const nlohmann::json& j) {
-  DetectorOptions o;
-  o.passive_hidden = j.at("passive_hidden").get<std::vector<int>>();
-  o.active_hidden = j.at("active_hidden").get<std::vector<int>>();
-  o.min_std = j.at("min_std").get<float>();
-  o.eps_act = j.at("eps_act").get<float>();
-  o.eps_pas = j.at("eps_pas").get<float>();
-  o.proximity_gate = j.at("proximity_gate").get<bool>();
-  o.counterfactual_draws = j.at("counterfactual_draws").get<int>();
-  o.eps_cf = j.at("eps_cf").get<float>();
-  o.close_distance = j.at("close_distance").get<float>();
-  o.seed = j.at("seed").get<uint64_t>();
-  return o;
-}
-
 }  // namespace
 
 nlohmann::json ToJson(const DetectorSpec& s) {
@@ -105,7 +81,9 @@ Result<DetectorSpec> DetectorSpecFromJson(const nlohmann::json& j) {
   try {
     if (j.at("kind").get<std::string>() != "detector") return Errorf("detector spec: kind is not 'detector'");
     s.layout = ReadLayout(j.at("layout"));
-    s.options = ReadOptions(j.at("options"));
+    Result<DetectorOptions> options = OptionsFromJson(j.at("options"));
+    if (!options.ok()) return options.status().WithContext("detector spec");
+    s.options = *options;
     s.gather = j.at("gather").get<std::vector<int>>();
     s.full_state_dim = j.at("full_state_dim").get<int>();
   } catch (const nlohmann::json::exception& e) {

@@ -1,11 +1,16 @@
 // DetectorOptions: every knob of the interaction detector, with the defaults of
 // shared/reference/coins-method.md where it gives one (and the reason where it does not).
+// Visit() lists the fields once: the config file's `detector` section and the flags of
+// `coins detect` are both made from it. The seed is not a config key: a run derives it.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
+#include "common/config/config.h"
 #include "common/status.h"
 
 namespace coins::detector {
@@ -36,7 +41,8 @@ struct DetectorOptions {
 
   // ---- data balancing (appendix B) ---------------------------------------------------------
   float lambda = 100.0f;        // active up-weight of close transitions with passive error
-  float close_distance = 7.0f;  // L1 distance of positions (env units); <= 0: no proximity
+  // L1 distance of positions (env units); 0: no proximity; < 0: the env's (EnvCloseDistance)
+  float close_distance = -1.0f;
   // when true, a pair without positions (source Action) up-weights nothing: w needs "close"
   bool upweight_needs_proximity = true;
   bool proximity_gate = true;   // h_ab also requires proximity (when the pair has positions)
@@ -61,11 +67,22 @@ struct DetectorOptions {
   float goal_min_fraction = 0.02f;  // discrete goals seen in fewer interactions are dropped
 
   uint64_t seed = 1;
+  void Visit(ConfigVisitor& v);
+  // the ranges of Visit and the rules between fields; the error names the field
   Status Validate() const;
 };
 
-// defaults for an env and pair: the proximity distance of the env (7 px Breakout, 0.13 m
-// pushing) and, when paper_sizes, the paper's network sizes for the named pairs
+// every option as a JSON object (the Visit keys and "seed"), and back: keys Visit does not
+// know, wrong types and values out of range are errors naming the key
+nlohmann::json OptionsJson(const DetectorOptions& options);
+Result<DetectorOptions> OptionsFromJson(const nlohmann::json& j);
+
+// the proximity distance of an env's positions: 10 px Breakout (with pre-move positions a
+// bounce is up to 9.5 px away, README), 0.13 m pushing, 7 for any other env
+float EnvCloseDistance(const std::string& env_name);
+
+// defaults for an env and pair: the proximity distance of the env (EnvCloseDistance) and, when
+// paper_sizes, the paper's network sizes for the named pairs
 DetectorOptions DefaultDetectorOptions(const std::string& env_name, bool paper_sizes = false,
                                        const std::string& source = "",
                                        const std::string& target = "");

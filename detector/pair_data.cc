@@ -24,7 +24,7 @@ Result<PairLayout> FitPairLayout(const envs::EnvSpec& spec, const TransitionSet&
   L.source = source;
   L.target = target;
   L.action = spec.action;
-  L.close_distance = options.close_distance;
+  L.close_distance = options.close_distance < 0 ? EnvCloseDistance(spec.name) : options.close_distance;
   L.source_is_action = source == "Action";
 
   // target factor

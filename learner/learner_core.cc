@@ -55,11 +55,7 @@ DetectRoundOptions LearnerCore::RoundOptions() const {
   o.max_samples = options_.detect_max_samples;
   o.max_floats = options_.detect_max_floats;
   o.holdout = options_.detect_holdout;
-  o.detector = detector::DefaultDetectorOptions(env_.name);
-  o.detector.passive_steps = int(options_.detect_passive_steps);
-  o.detector.passive_hard_steps = int(options_.detect_passive_steps);
-  o.detector.active_steps = int(options_.detect_active_steps);
-  o.detector.eps_si = float(options_.detect_eps_si);
+  o.detector = options_.detector;
   o.detector.seed = seed_ + 17;
   return o;
 }

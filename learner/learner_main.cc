@@ -235,6 +235,7 @@ int LearnerMain(int argc, char** argv) {
   int64_t resume_epoch = -1;
   main.AddSection(ConfigSection::Of("run", run));
   main.AddSection(ConfigSection::Of("learner", options));
+  main.AddSection(ConfigSection::Of("detector", options.detector));
   main.app().add_option("--resume-epoch", resume_epoch, "start from this checkpoint epoch (default: the newest)")
       ->check(CLI::NonNegativeNumber);
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;

@@ -94,9 +94,6 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
   v.Int("detect_max_samples", detect_max_samples, 100, int64_t(1) << 30, "samples per detect target at most");
   v.Int("detect_max_floats", detect_max_floats, 1000, int64_t(1) << 34, "sampled floats per detect target at most");
   v.Float("detect_holdout", detect_holdout, 0.01, 0.9, "held-out fraction scored");
-  v.Int("detect_passive_steps", detect_passive_steps, 1, 1 << 24, "passive model Adam steps");
-  v.Int("detect_active_steps", detect_active_steps, 1, 1 << 24, "active model Adam steps");
-  v.Float("detect_eps_si", detect_eps_si, -1e6, 1e6, "Sc_I threshold reported as pass");
   v.Int("detector_retrain_steps", detector_retrain_steps, 0, int64_t(1) << 40, "env steps between detector retrains");
   v.Int("eval_every_steps", eval_every_steps, 1, int64_t(1) << 40, "env steps between evaluations");
   v.Int("eval_episodes", eval_episodes, 1, 100000, "task episodes per evaluation");

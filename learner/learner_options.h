@@ -2,7 +2,7 @@
 // run time, so their settings come in three groups by what a level's actions are, never by
 // link: `primitive_*` for the first skill (primitive actions), `skill_*` for skills whose actions
 // are goals of the skill below, `task_*` for the task policy over the top skill. Detection
-// settings are `detect_*`. Defaults follow shared/reference/coins-method.md unless the comment
+// settings are `detect_*`; the detectors' own options are the `detector` section. Defaults follow shared/reference/coins-method.md unless the comment
 // says why not.
 #pragma once
 
@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/config/config.h"
+#include "detector/options.h"
 
 namespace coins {
 
@@ -55,10 +56,9 @@ struct LearnerOptions {
   int64_t detect_max_samples = 200000;
   int64_t detect_max_floats = 20000000;
   double detect_holdout = 0.2;
-  // detector training (detector/options.h)
-  int64_t detect_passive_steps = 4000;
-  int64_t detect_active_steps = 10000;
-  double detect_eps_si = 3.0;
+  // detector training: the config's own `detector` section (detector/options.h), bound beside
+  // this one, not a key of it
+  detector::DetectorOptions detector;
   // a skill trained on interactions retrains its link's detector from replay this often (env
   // steps; 0: never), as the reference retrained the paddle-ball model during ball training
   int64_t detector_retrain_steps = 20000;

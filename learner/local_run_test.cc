@@ -39,8 +39,8 @@ LocalRunOptions Options() {
   o.actor.batch_rows = 256;
   o.replay.capacity = 200000;
   o.replay.capacity_mb = 64;
-  o.learner.detect_passive_steps = 1500;
-  o.learner.detect_active_steps = 3000;
+  o.learner.detector.passive_steps = o.learner.detector.passive_hard_steps = 1500;
+  o.learner.detector.active_steps = 3000;
   o.learner.eval_every_steps = 4000;
   o.learner.eval_goals = 100;
   if (getenv("EXPLORE")) o.learner.primitive.explore = atof(getenv("EXPLORE"));

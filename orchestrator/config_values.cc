@@ -22,6 +22,9 @@ class Flattener final : public ConfigVisitor {
   void FloatList(std::string_view key, std::vector<double>& v, std::string_view) override {
     Put(key, fmt::format("[{}]", fmt::join(v, ", ")));
   }
+  void IntList(std::string_view key, std::vector<int64_t>& v, int64_t, int64_t, std::string_view) override {
+    Put(key, fmt::format("[{}]", fmt::join(v, ", ")));
+  }
 
  private:
   void Put(std::string_view key, std::string value) { out_[section_ + "." + std::string(key)] = std::move(value); }

@@ -9,6 +9,7 @@ std::vector<ConfigSection> SystemConfig::Sections(bool with_dds) {
   s.push_back(ConfigSection::Of("actor", actor));
   s.push_back(ConfigSection::Of("replay", replay));
   s.push_back(ConfigSection::Of("learner", learner));
+  s.push_back(ConfigSection::Of("detector", learner.detector));
   s.push_back(ConfigSection::Of("orchestrator", orchestrator));
   return s;
 }

@@ -1,5 +1,6 @@
-// SystemConfig: every section of a coins config (dds, run, actor, replay, learner, orchestrator)
-// in one struct, as `coins run` and the orchestrator load it.
+// SystemConfig: every section of a coins config (dds, run, actor, replay, learner, detector,
+// orchestrator) in one struct, as `coins run` and the orchestrator load it. The detector section
+// is the learner's LearnerOptions::detector.
 #pragma once
 
 #include <vector>

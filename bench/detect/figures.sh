@@ -11,7 +11,7 @@ run() { local name=$1; shift; echo "== $name: detect $*" >&2; "$BIN" detect "$@"
 # 1. Paddle->Ball against the simulator's labels, and without each safeguard
 BALL=(--env breakout --source Paddle --targets Ball --steps 1000000 --holdout 0.1 --active-steps 40000 --eval --eval-steps 500000)
 run ball_1m "${BALL[@]}"
-run ball_1m_nogate "${BALL[@]}" --no-proximity-gate
+run ball_1m_nogate "${BALL[@]}" --proximity-gate false
 run ball_1m_nocf "${BALL[@]}" --counterfactual-draws 0
 
 # 2. steps of data before each link passes, with the linear Granger test on the same data

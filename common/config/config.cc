@@ -1,11 +1,15 @@
 #include "common/config/config.h"
 
 #include <algorithm>
+#include <climits>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
 
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
 namespace coins {
@@ -104,6 +108,29 @@ class YamlReader final : public ConfigVisitor {
     }
     value = std::move(parsed);
   }
+  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max,
+               std::string_view) override {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    if (!n.IsSequence()) {
+      Fail(key, "expected a list of integers, got " + Show(n));
+      return;
+    }
+    std::vector<int64_t> parsed;
+    for (const auto& item : n) {
+      int64_t x = 0;
+      if (!item.IsScalar() || !YAML::convert<int64_t>::decode(item, x)) {
+        Fail(key, "expected a list of integers, found " + Show(item));
+        return;
+      }
+      if (x < min || x > max) {
+        Fail(key, fmt::format("entries must be in [{}, {}], got {}", min, max, x));
+        return;
+      }
+      parsed.push_back(x);
+    }
+    value = std::move(parsed);
+  }
 
   // after visiting: any key of the map not used is unknown
   Status Finish() {
@@ -167,9 +194,68 @@ class YamlWriter final : public ConfigVisitor {
   void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override {
     out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << value;
   }
+  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t, int64_t, std::string_view) override {
+    out_ << YAML::Key << std::string(key) << YAML::Value << YAML::Flow << value;
+  }
 
  private:
   YAML::Emitter& out_;
+};
+
+// checks the values a section holds against the ranges and choices its Visit declares
+class RangeChecker final : public ConfigVisitor {
+ public:
+  void Int(std::string_view key, int64_t& value, int64_t min, int64_t max, std::string_view) override {
+    if (value < min || value > max) Fail(fmt::format("{} must be in [{}, {}], got {}", key, min, max, value));
+  }
+  void Float(std::string_view key, double& value, double min, double max, std::string_view) override {
+    if (!(value >= min && value <= max)) Fail(fmt::format("{} must be in [{}, {}], got {}", key, min, max, value));
+  }
+  void Bool(std::string_view, bool&, std::string_view) override {}
+  void String(std::string_view key, std::string& value, const std::vector<std::string>& choices,
+              std::string_view) override {
+    if (!choices.empty() && std::find(choices.begin(), choices.end(), value) == choices.end())
+      Fail(fmt::format("{} '{}' is not one of: {}", key, value, fmt::join(choices, ", ")));
+  }
+  void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override {
+    for (double x : value)
+      if (!std::isfinite(x)) Fail(fmt::format("{} has a non-finite entry {}", key, x));
+  }
+  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max,
+               std::string_view) override {
+    for (int64_t x : value)
+      if (x < min || x > max) Fail(fmt::format("{} entries must be in [{}, {}], got {}", key, min, max, x));
+  }
+  const Status& status() const { return status_; }
+
+ private:
+  void Fail(std::string message) {
+    if (status_.ok()) status_ = Status::Error(std::move(message));
+  }
+  Status status_;
+};
+
+// collects a section's fields as a JSON object
+class JsonWriter final : public ConfigVisitor {
+ public:
+  void Int(std::string_view key, int64_t& value, int64_t, int64_t, std::string_view) override { Put(key, value); }
+  void Float(std::string_view key, double& value, double, double, std::string_view) override { Put(key, value); }
+  void Bool(std::string_view key, bool& value, std::string_view) override { Put(key, value); }
+  void String(std::string_view key, std::string& value, const std::vector<std::string>&, std::string_view) override {
+    Put(key, value);
+  }
+  void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override { Put(key, value); }
+  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t, int64_t, std::string_view) override {
+    Put(key, value);
+  }
+  const nlohmann::json& json() const { return json_; }
+
+ private:
+  template <typename T>
+  void Put(std::string_view key, const T& value) {
+    json_[std::string(key)] = value;
+  }
+  nlohmann::json json_ = nlohmann::json::object();
 };
 
 size_t EditDistance(std::string_view a, std::string_view b) {
@@ -189,9 +275,43 @@ size_t EditDistance(std::string_view a, std::string_view b) {
 
 }  // namespace
 
+void VisitInt(ConfigVisitor& v, std::string_view key, int& value, int64_t min, int64_t max, std::string_view doc) {
+  int64_t wide = value;
+  v.Int(key, wide, min, max, doc);
+  value = int(std::clamp<int64_t>(wide, INT32_MIN, INT32_MAX));
+}
+
+void VisitFloat(ConfigVisitor& v, std::string_view key, float& value, double min, double max, std::string_view doc) {
+  // the double nearest the float's shortest decimal form: 0.01f is shown as 0.01, not
+  // 0.009999999776482582, and narrows back to the same float
+  double wide = std::strtod(fmt::format("{}", value).c_str(), nullptr);
+  v.Float(key, wide, min, max, doc);
+  value = float(wide);
+}
+
+void VisitIntList(ConfigVisitor& v, std::string_view key, std::vector<int>& value, int64_t min, int64_t max,
+                  std::string_view doc) {
+  std::vector<int64_t> wide(value.begin(), value.end());
+  v.IntList(key, wide, min, max, doc);
+  value.assign(wide.size(), 0);
+  for (size_t i = 0; i < wide.size(); ++i) value[i] = int(std::clamp<int64_t>(wide[i], INT32_MIN, INT32_MAX));
+}
+
+Status CheckConfigRanges(const std::function<void(ConfigVisitor&)>& visit) {
+  RangeChecker checker;
+  visit(checker);
+  return checker.status();
+}
+
+std::string ConfigJson(const ConfigSection& section) {
+  JsonWriter writer;
+  section.visit(writer);
+  return writer.json().dump();
+}
+
 const std::vector<std::string>& KnownConfigSections() {
-  static const std::vector<std::string> kSections = {"dds", "run", "actor", "replay", "learner",
-                                                     "orchestrator"};
+  static const std::vector<std::string> kSections = {"dds",     "run",      "actor",       "replay",
+                                                     "learner", "detector", "orchestrator"};
   return kSections;
 }
 

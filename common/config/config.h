@@ -41,7 +41,25 @@ class ConfigVisitor {
                       const std::vector<std::string>& choices, std::string_view doc) = 0;
   // a list of floats; empty allowed
   virtual void FloatList(std::string_view key, std::vector<double>& value, std::string_view doc) = 0;
+  // a list of integers, each within [min, max]; empty allowed
+  virtual void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max,
+                       std::string_view doc) = 0;
 };
+
+// Fields narrower than the visitor's types (int, float, std::vector<int>, an enum's name) go
+// through these: the value is widened, visited and narrowed back, so a reader's range check
+// still decides what the field can hold.
+void VisitInt(ConfigVisitor& v, std::string_view key, int& value, int64_t min, int64_t max, std::string_view doc);
+void VisitFloat(ConfigVisitor& v, std::string_view key, float& value, double min, double max, std::string_view doc);
+void VisitIntList(ConfigVisitor& v, std::string_view key, std::vector<int>& value, int64_t min, int64_t max,
+                  std::string_view doc);
+
+// checks that every field of a section lies in the range its Visit declares (and, for strings,
+// among its choices); the error names the key: "lr must be in [1e-09, 10], got 0". For options
+// structs that are also built in code (not only loaded), as the first step of their Validate().
+template <typename Options>
+Status CheckConfigRanges(Options& options);
+Status CheckConfigRanges(const std::function<void(ConfigVisitor&)>& visit);
 
 // A named section of the config file bound to an options struct. The options struct outlives it.
 struct ConfigSection {
@@ -82,7 +100,16 @@ class ConfigLoader {
   std::vector<ConfigSection> sections_;
 };
 
+// a section's fields as one JSON object (key -> number, bool, string or list), e.g. to record
+// the options a report was made with
+std::string ConfigJson(const ConfigSection& section);
+
 // the closest candidate by edit distance, or "" when none is close
 std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates);
+
+template <typename Options>
+Status CheckConfigRanges(Options& options) {
+  return CheckConfigRanges([&options](ConfigVisitor& v) { options.Visit(v); });
+}
 
 }  // namespace coins

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 
@@ -16,12 +17,16 @@ struct TestOptions {
   bool enabled = true;
   std::string mode = "fast";
   std::vector<double> mask = {1, 0};
+  std::vector<int> sizes = {64, 32};
+  float scale = 2.5f;
   void Visit(ConfigVisitor& v) {
     v.Int("capacity", capacity, 1, 1000, "items");
     v.Float("ratio", ratio, 0.0, 1.0, "fraction");
     v.Bool("enabled", enabled, "on/off");
     v.String("mode", mode, {"fast", "slow"}, "speed");
     v.FloatList("mask", mask, "mask");
+    VisitIntList(v, "sizes", sizes, 1, 100, "layer sizes");
+    VisitFloat(v, "scale", scale, 0.5, 4.0, "a float field");
   }
   Status Validate() const {
     if (mode == "slow" && capacity > 10) return Errorf("capacity {} too large for slow mode", capacity);
@@ -141,6 +146,38 @@ TEST_F(Fixture, DumpRoundTrips) {
   EXPECT_EQ(other.capacity, 42);
   EXPECT_EQ(other.mode, "slow");
   EXPECT_EQ(other.mask, opts.mask);
+}
+
+TEST_F(Fixture, NarrowFieldsAndIntegerListsAreReadAndChecked) {
+  ASSERT_TRUE(loader.LoadText("replay:\n  sizes: [8, 100]\n  scale: 0.75\n", "t").ok());
+  EXPECT_EQ(opts.sizes, (std::vector<int>{8, 100}));
+  EXPECT_FLOAT_EQ(opts.scale, 0.75f);
+  EXPECT_EQ(loader.LoadText("replay:\n  sizes: [8, 101]\n", "t").message(),
+            "t: replay.sizes: entries must be in [1, 100], got 101");
+  EXPECT_EQ(loader.LoadText("replay:\n  sizes: [8, 2.5]\n", "t").message(),
+            "t: replay.sizes: expected a list of integers, found '2.5'");
+  EXPECT_EQ(loader.LoadText("replay:\n  scale: 5\n", "t").message(), "t: replay.scale: must be in [0.5, 4], got 5");
+  EXPECT_EQ(opts.sizes, (std::vector<int>{8, 100}));  // a refused value changes nothing
+  EXPECT_NE(loader.Dump().find("sizes: [8, 100]"), std::string::npos) << loader.Dump();
+}
+
+TEST_F(Fixture, RangesAreCheckedOnValuesSetInCode) {
+  EXPECT_TRUE(CheckConfigRanges(opts).ok());
+  opts.sizes = {4, 0};
+  EXPECT_EQ(CheckConfigRanges(opts).message(), "sizes entries must be in [1, 100], got 0");
+  opts = TestOptions();
+  opts.ratio = std::nan("");
+  EXPECT_EQ(CheckConfigRanges(opts).message(), "ratio must be in [0, 1], got nan");
+  opts = TestOptions();
+  opts.mode = "medium";
+  EXPECT_EQ(CheckConfigRanges(opts).message(), "mode 'medium' is not one of: fast, slow");
+}
+
+TEST_F(Fixture, ConfigJsonHasEveryField) {
+  opts.capacity = 9;
+  opts.sizes = {3};
+  EXPECT_EQ(ConfigJson(ConfigSection::Of("replay", opts)),
+            R"({"capacity":9,"enabled":true,"mask":[1.0,0.0],"mode":"fast","ratio":0.5,"scale":2.5,"sizes":[3]})");
 }
 
 }  // namespace

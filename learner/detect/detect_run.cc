@@ -77,20 +77,6 @@ Result<std::vector<std::string>> ResolveTargets(const DetectRequest& req, const 
   return targets;
 }
 
-// the effective options, for reproducing a run
-nlohmann::json OptionsJson(const DetectorOptions& o) {
-  return {{"passive_hidden", o.passive_hidden}, {"active_hidden", o.active_hidden}, {"lr", o.lr},
-          {"passive_steps", o.passive_steps}, {"passive_hard_steps", o.passive_hard_steps},
-          {"passive_hard_lambda", o.passive_hard_lambda}, {"active_steps", o.active_steps},
-          {"batch", o.batch}, {"min_std", o.min_std}, {"warm_start", o.warm_start},
-          {"source_action", o.source_action}, {"lambda", o.lambda},
-          {"close_distance", o.close_distance}, {"proximity_gate", o.proximity_gate},
-          {"eps_act", o.eps_act}, {"eps_pas", o.eps_pas}, {"eps_si", o.eps_si},
-          {"min_interactions", o.min_interactions}, {"counterfactual_draws", o.counterfactual_draws},
-          {"eps_cf", o.eps_cf}, {"eps_eta", o.eps_eta}, {"eps_eta_relative", o.eps_eta_relative},
-          {"n_disc", o.n_disc}, {"goal_dedup", o.goal_dedup}, {"seed", o.seed}};
-}
-
 // the linear Granger test on the data (also the optional screen): report["granger"] and the
 // p-value of each target
 Result<std::map<std::string, double>> RunGranger(const DetectRequest& req, const envs::EnvSpec& spec,

@@ -10,7 +10,7 @@ namespace coins::envs {
 namespace {
 
 constexpr uint32_t kSaveMagic = 0x314b5242;  // "BRK1"
-constexpr int kF = 5;                         // features per Breakout object
+constexpr int kF = 5;                        // features per Breakout object
 
 bool Overlap(int y0, int x0, int h0, int w0, int y1, int x1, int h1, int w1) {
   return y0 < y1 + h1 && y1 < y0 + h0 && x0 < x1 + w1 && x1 < x0 + w0;
@@ -120,9 +120,7 @@ void BreakoutEnv::BuildBoard() {
       }
       break;
     }
-    case BreakoutVariant::kBig:
-      set(blocks_[0], 17, 15 + 15 * rng_.UniformInt(0, 3), 18, 12, Kind::kGoal, 1);
-      break;
+    case BreakoutVariant::kBig: set(blocks_[0], 17, 15 + 15 * rng_.UniformInt(0, 3), 18, 12, Kind::kGoal, 1); break;
     case BreakoutVariant::kNeg: {
       for (int j = 0; j < 10; ++j) set(blocks_[j], 22, 12 + 6 * j, 4, 6, Kind::kNormal, 1);
       int order[10];
@@ -308,8 +306,44 @@ Status CheckStep(const std::string& env, std::span<const float> action, size_t s
 
 }  // namespace
 
-Status BreakoutEnv::Step(std::span<const float> action, std::span<float> next_state,
-                         StepResult* result) {
+bool BreakoutEnv::BounceOffPaddle(int ny, int nx, StepResult* r) {
+  if (ball_vy_ <= 0 || !Overlap(ny, nx, kBallSize, kBallSize, kPaddleY, paddle_x_, kPaddleH, kPaddleW)) return false;
+  // the offset of the ball's next x on the paddle picks one of four angles
+  const int rel = nx - paddle_x_;
+  if (rel <= 0)
+    ball_vy_ = -1, ball_vx_ = -1;
+  else if (rel <= 2)
+    ball_vy_ = -2, ball_vx_ = -1;
+  else if (rel <= 4)
+    ball_vy_ = -2, ball_vx_ = 1;
+  else
+    ball_vy_ = -1, ball_vx_ = 1;
+  r->interactions |= kPaddleBall;
+  since_touch_ = -1;
+  ++bounces_;
+  if (variant_ == BreakoutVariant::kSingle || variant_ == BreakoutVariant::kHard ||
+      variant_ == BreakoutVariant::kCenter)
+    r->reward -= 1.0f;
+  if (variant_ == BreakoutVariant::kHard && bounces_ >= 10) r->done = true;
+  return true;
+}
+
+void BreakoutEnv::BounceOffBlocks(int ny, int nx, StepResult* r) {
+  if (ny >= blocks_y1_ || ny + kBallSize <= blocks_y0_) return;
+  // only the first live block hit counts
+  for (int i = 0; i < static_cast<int>(blocks_.size()); ++i) {
+    const Block& b = blocks_[i];
+    if (b.attr == 0 || !Overlap(ny, nx, kBallSize, kBallSize, b.y, b.x, b.h, b.w)) continue;
+    if (ball_y_ == b.y)
+      ball_vx_ = -ball_vx_;  // level with the block's top: a side hit
+    else
+      ball_vy_ = -ball_vy_;
+    HitBlock(i, r);
+    break;
+  }
+}
+
+Status BreakoutEnv::Step(std::span<const float> action, std::span<float> next_state, StepResult* result) {
   COINS_RETURN_IF_ERROR(CheckStep(spec_.name, action, next_state.size(), obs_.size(), episode_over_));
   StepResult r;
   const int act = static_cast<int>(action[0]);
@@ -327,39 +361,16 @@ Status BreakoutEnv::Step(std::span<const float> action, std::span<float> next_st
   if (nx < kLeftWallX + kWallThickness && ball_vx_ < 0) ball_vx_ = -ball_vx_;
   if (nx + kBallSize > kRightWallX && ball_vx_ > 0) ball_vx_ = -ball_vx_;
   if (ny < kTopWallY + kWallThickness && ball_vy_ < 0) {
-    if (variant_ == BreakoutVariant::kBig) drop = true;  // big: one bounce to hit the block
-    else ball_vy_ = -ball_vy_;
+    if (variant_ == BreakoutVariant::kBig)
+      drop = true;  // big: one bounce to hit the block
+    else
+      ball_vy_ = -ball_vy_;
   }
 
-  // paddle bounce: the offset of the ball's next x on the paddle picks one of four angles
-  if (ball_vy_ > 0 && Overlap(ny, nx, kBallSize, kBallSize, kPaddleY, paddle_x_, kPaddleH, kPaddleW)) {
-    const int rel = nx - paddle_x_;
-    if (rel <= 0) ball_vy_ = -1, ball_vx_ = -1;
-    else if (rel <= 2) ball_vy_ = -2, ball_vx_ = -1;
-    else if (rel <= 4) ball_vy_ = -2, ball_vx_ = 1;
-    else ball_vy_ = -1, ball_vx_ = 1;
-    r.interactions |= kPaddleBall;
-    since_touch_ = -1;
-    ++bounces_;
-    if (variant_ == BreakoutVariant::kSingle || variant_ == BreakoutVariant::kHard ||
-        variant_ == BreakoutVariant::kCenter)
-      r.reward -= 1.0f;
-    if (variant_ == BreakoutVariant::kHard && bounces_ >= 10) r.done = true;
-  } else if (ny + kBallSize > kBottomWallY) {
-    drop = true;
-  }
+  // paddle bounce, else a drop below the paddle
+  if (!BounceOffPaddle(ny, nx, &r) && ny + kBallSize > kBottomWallY) drop = true;
 
-  // blocks: only the first live block hit counts
-  if (!drop && ny < blocks_y1_ && ny + kBallSize > blocks_y0_) {
-    for (int i = 0; i < static_cast<int>(blocks_.size()); ++i) {
-      const Block& b = blocks_[i];
-      if (b.attr == 0 || !Overlap(ny, nx, kBallSize, kBallSize, b.y, b.x, b.h, b.w)) continue;
-      if (ball_y_ == b.y) ball_vx_ = -ball_vx_;  // level with the block's top: a side hit
-      else ball_vy_ = -ball_vy_;
-      HitBlock(i, &r);
-      break;
-    }
-  }
+  if (!drop) BounceOffBlocks(ny, nx, &r);
 
   // move, or drop
   if (drop) {
@@ -447,8 +458,8 @@ std::vector<uint8_t> BreakoutEnv::SaveState() const {
   w.Put(static_cast<int32_t>(variant_));
   w.PutArray(rng_.state(), 4);
   w.PutArray(blocks_.data(), blocks_.size());
-  const int32_t ints[] = {paddle_x_, ball_y_, ball_x_, ball_vy_, ball_vx_, last_action_, drops_,
-                          bounces_,  hits_,   since_touch_, target_, episode_over_, board_cleared_};
+  const int32_t ints[] = {paddle_x_, ball_y_, ball_x_,      ball_vy_, ball_vx_,      last_action_,  drops_,
+                          bounces_,  hits_,   since_touch_, target_,  episode_over_, board_cleared_};
   w.PutArray(ints, std::size(ints));
   w.Put(last_reward_);
   w.Put(last_done_);

@@ -46,7 +46,7 @@ class BreakoutEnv final : public Env {
   struct Block {
     int y = 0, x = 0, h = 0, w = 0;
     Kind kind = Kind::kNormal;
-    int8_t attr = 0;   // 1 alive, 0 gone, -1 negative or hard
+    int8_t attr = 0;  // 1 alive, 0 gone, -1 negative or hard
   };
 
   explicit BreakoutEnv(BreakoutVariant variant);
@@ -54,8 +54,7 @@ class BreakoutEnv final : public Env {
   const EnvSpec& spec() const override { return spec_; }
   void Reset(uint64_t seed, std::span<float> state) override;
   void ResetNext(std::span<float> state) override;
-  Status Step(std::span<const float> action, std::span<float> next_state,
-              StepResult* result) override;
+  Status Step(std::span<const float> action, std::span<float> next_state, StepResult* result) override;
   void GetState(std::span<float> state) const override;
   std::vector<uint8_t> SaveState() const override;
   Status RestoreState(std::span<const uint8_t> bytes) override;
@@ -76,16 +75,21 @@ class BreakoutEnv final : public Env {
   void SetBlockAttrForTest(int i, int attr);
 
  private:
-  void BuildBoard();     // lays out blocks for the variant (random parts from rng_)
-  void Serve();          // puts the ball at a serve position
+  void BuildBoard();                          // lays out blocks for the variant (random parts from rng_)
+  void Serve();                               // puts the ball at a serve position
   void StartEpisode(std::span<float> state);  // serves and clears the episode counters; writes the state
-  void ApplyRestores();  // per-step restores (neg: all blocks, prox: top row)
-  void PickTarget();     // prox: a new target among live blocks
+  void ApplyRestores();                       // per-step restores (neg: all blocks, prox: top row)
+  void PickTarget();                          // prox: a new target among live blocks
   void HitBlock(int i, StepResult* r);
+  // the ball's next position (ny, nx) meets the paddle: sets the bounce angle and its reward
+  // and labels; false when it does not meet it
+  bool BounceOffPaddle(int ny, int nx, StepResult* r);
+  // the first live block the ball's next position overlaps bounces it and is hit
+  void BounceOffBlocks(int ny, int nx, StepResult* r);
   int LiveNormalBlocks() const;
-  void SyncBlock(int i);   // copies block i into obs_
-  void SyncAll();          // rebuilds all of obs_
-  void SyncDynamic();      // action, paddle, ball, target, done, reward into obs_
+  void SyncBlock(int i);  // copies block i into obs_
+  void SyncAll();         // rebuilds all of obs_
+  void SyncDynamic();     // action, paddle, ball, target, done, reward into obs_
 
   BreakoutVariant variant_;
   EnvSpec spec_;
@@ -98,10 +102,10 @@ class BreakoutEnv final : public Env {
   int paddle_x_ = kPaddleX0;
   int ball_y_ = 0, ball_x_ = 0, ball_vy_ = 1, ball_vx_ = 1;
   int last_action_ = 0;
-  int drops_ = 0;            // base: drops since the board was built
-  int bounces_ = 0;          // paddle bounces this episode
-  int hits_ = 0;             // block hits this episode
-  int since_touch_ = 0;      // steps since the paddle last touched the ball (or a serve)
+  int drops_ = 0;        // base: drops since the board was built
+  int bounces_ = 0;      // paddle bounces this episode
+  int hits_ = 0;         // block hits this episode
+  int since_touch_ = 0;  // steps since the paddle last touched the ball (or a serve)
   int target_ = -1;
   bool episode_over_ = false;
   bool board_cleared_ = false;

@@ -23,8 +23,8 @@ struct Actor::EnvSlot {
   std::unique_ptr<HierarchyRunner> runner;
   std::vector<Stream> streams;
   std::unique_ptr<SlotSink> rows;
-  bool segment_start = true;   // the runner must open new segments before the next step
-  bool episode_start = true;   // ... and they start an episode
+  bool segment_start = true;  // the runner must open new segments before the next step
+  bool episode_start = true;  // ... and they start an episode
   uint64_t episode = 0;
   double episode_return = 0;
 };
@@ -67,8 +67,8 @@ Result<std::unique_ptr<Actor>> Actor::Create(const std::string& env_name, const 
                                              uint32_t actor_id, uint64_t seed, BatchSink* sink) {
   std::unique_ptr<Actor> actor(new Actor(actor_id, options, sink));
   // a fresh incarnation per process start, so shards tell a restarted actor from duplicates
-  actor->incarnation_ = Mix(std::random_device{}(), static_cast<uint64_t>(
-      std::chrono::steady_clock::now().time_since_epoch().count()));
+  actor->incarnation_ =
+      Mix(std::random_device{}(), static_cast<uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count()));
   for (int64_t i = 0; i < options.envs; ++i) {
     auto env = envs::MakeEnv(env_name);
     if (!env.ok()) return env.status();
@@ -167,8 +167,10 @@ bool Actor::AddRow(EnvSlot& slot, int stream, std::span<const float> state, std:
   Stream& st = slot.streams[size_t(stream)];
   if (st.batch && st.builder.full()) {
     // a full stream-0 batch takes the env's other streams along
-    if (stream == 0) PublishEnv(slot);
-    else PublishBatch(slot, stream);
+    if (stream == 0)
+      PublishEnv(slot);
+    else
+      PublishBatch(slot, stream);
   }
   const bool segment_start = (flags & msg::ROW_SEGMENT_START) != 0;
   if (!st.batch && !StartBatch(slot, stream, st.has_last && !segment_start)) return false;

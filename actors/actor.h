@@ -32,12 +32,12 @@ struct ActorCounters {
   uint64_t episodes = 0;
   uint64_t batches = 0;
   uint64_t transitions_published = 0;
-  uint64_t payload_checksum = 0;   // sum of payload hashes of published batches
-  double return_sum = 0;           // over finished episodes
+  uint64_t payload_checksum = 0;  // sum of payload hashes of published batches
+  double return_sum = 0;          // over finished episodes
   uint64_t returns_counted = 0;
-  uint64_t paced_waits = 0;        // times stepping waited for its allowance
-  uint64_t step_errors = 0;        // env steps refused (the episode ended, the actor went on)
-  HierarchyCounters hierarchy;     // summed over envs
+  uint64_t paced_waits = 0;     // times stepping waited for its allowance
+  uint64_t step_errors = 0;     // env steps refused (the episode ended, the actor went on)
+  HierarchyCounters hierarchy;  // summed over envs
 };
 
 class Actor {
@@ -69,8 +69,8 @@ class Actor {
   // from and the weights version of each level (stamped on batches). With restart, every env
   // opens new segments (goals and decisions start afresh): after a change of the acting level
   // or of a level's spec. New weights of the same specs need no restart.
-  void Configure(const HierarchyModels* models, int acting_level, uint64_t command_seq,
-                 std::vector<uint64_t> versions, bool restart);
+  void Configure(const HierarchyModels* models, int acting_level, uint64_t command_seq, std::vector<uint64_t> versions,
+                 bool restart);
 
   // the seed env i of this actor is reset with
   static uint64_t EnvSeed(uint64_t seed, uint32_t actor_id, uint64_t env_index);
@@ -101,7 +101,7 @@ class Actor {
               std::span<const float> goal, float reward, uint16_t flags, uint8_t skill, uint32_t interactions);
   bool StartBatch(EnvSlot& slot, int stream, bool context_row);
   void PublishBatch(EnvSlot& slot, int stream);
-  void PublishEnv(EnvSlot& slot);   // every stream of the env that holds a transition
+  void PublishEnv(EnvSlot& slot);  // every stream of the env that holds a transition
   void PublishAll();
   void SumCounters();
 

@@ -4,8 +4,8 @@
 #include <optional>
 #include <thread>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "actors/actor.h"
 #include "actors/weights_store.h"
@@ -25,20 +25,21 @@ namespace {
 
 nlohmann::json StatsJson(const msg::ActorStats& s) {
   return {{"actor_id", s.actor_id()},
-         {"env", s.env()},
-         {"shard", s.shard()},
-         {"steps", s.steps()},
-         {"episodes", s.episodes()},
-         {"batches", s.batches()},
-         {"transitions_published", s.transitions_published()},
-         {"payload_checksum", s.payload_checksum()},
-         {"publish_retries", s.publish_retries()},
-         {"weights_rejected", s.weights_rejected()},
-         {"detector", {{"pair", s.detector_pair()},
-                       {"states", s.detector_states()},
-                       {"labelled", s.detector_truth()},
-                       {"false_positives", s.detector_fp()},
-                       {"missed", s.detector_fn()}}}};
+          {"env", s.env()},
+          {"shard", s.shard()},
+          {"steps", s.steps()},
+          {"episodes", s.episodes()},
+          {"batches", s.batches()},
+          {"transitions_published", s.transitions_published()},
+          {"payload_checksum", s.payload_checksum()},
+          {"publish_retries", s.publish_retries()},
+          {"weights_rejected", s.weights_rejected()},
+          {"detector",
+           {{"pair", s.detector_pair()},
+            {"states", s.detector_states()},
+            {"labelled", s.detector_truth()},
+            {"false_positives", s.detector_fp()},
+            {"missed", s.detector_fn()}}}};
 }
 
 // the chain side of an actor: the newest command, the weights, the learner's progress; applied
@@ -78,8 +79,10 @@ class ChainFollower {
     });
     bool weights = false;
     weights_.TakeAll(weights_scratch_, [&](const msg::PolicyWeights& w, const auto&) {
-      if (Status s = store_.Apply(w); !s.ok()) spdlog::warn("rejected: {}", s.message());
-      else weights = true;
+      if (Status s = store_.Apply(w); !s.ok())
+        spdlog::warn("rejected: {}", s.message());
+      else
+        weights = true;
     });
     learner_.TakeAll(learner_scratch_, [&](const msg::LearnerStatus& s, const auto&) {
       if (command_ && s.command_seq() == command_->seq()) updates_ = s.updates();
@@ -104,7 +107,8 @@ class ChainFollower {
     stats->command_seq(command_seq());
     stats->acting_level(acting());
     std::vector<uint64_t> ended(8), reached(8);
-    for (int i = 0; i < 8; ++i) ended[size_t(i)] = c.hierarchy.goals_ended[i], reached[size_t(i)] = c.hierarchy.goals_reached[i];
+    for (int i = 0; i < 8; ++i)
+      ended[size_t(i)] = c.hierarchy.goals_ended[i], reached[size_t(i)] = c.hierarchy.goals_reached[i];
     stats->goals_started(ended);
     stats->goals_reached(reached);
     stats->policy_versions(store_.versions());

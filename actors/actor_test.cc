@@ -33,7 +33,8 @@ TEST(Actor, BatchesReplayExactlyOnFreshEnvs) {
   CapturingSink sink;
   auto actor = Actor::Create("breakout", Options(2, 50), 5, 42, &sink);
   ASSERT_TRUE(actor.ok()) << actor.status().message();
-  (*actor)->Run(6000, [] { return false; }, [](const ActorCounters&) {}, std::chrono::seconds(100));
+  (*actor)->Run(
+      6000, [] { return false; }, [](const ActorCounters&) {}, std::chrono::seconds(100));
   const auto& c = (*actor)->counters();
   EXPECT_EQ(c.steps, 6000u);
   EXPECT_GT(c.episodes, 0u);
@@ -87,7 +88,8 @@ TEST(Actor, BatchesAreCompact) {
   CapturingSink sink;
   auto actor = Actor::Create("breakout", Options(1, 0), 0, 1, &sink);
   ASSERT_TRUE(actor.ok());
-  (*actor)->Run(5000, [] { return false; }, [](const ActorCounters&) {}, std::chrono::seconds(100));
+  (*actor)->Run(
+      5000, [] { return false; }, [](const ActorCounters&) {}, std::chrono::seconds(100));
   ASSERT_GE(sink.batches.size(), 2u);
   // a Breakout step changes a handful of the 500-odd features: far fewer deltas than floats
   size_t rows = 0, deltas = 0;

@@ -148,9 +148,10 @@ bool DdsBatchSink::Stalled() {
 
 bool DdsBatchSink::Recover() {
   const double blocked = std::chrono::duration<double>(Clock::now() - *blocked_since_).count();
-  spdlog::warn("transition stream to shard {} stalled: {} reader(s) matched, nothing acknowledged for {:.1f} s and "
-               "no progress reported by the shard; replacing the writer and resending {} retained batches",
-               shard_, writer_.matched(), blocked, retained_.size());
+  spdlog::warn(
+      "transition stream to shard {} stalled: {} reader(s) matched, nothing acknowledged for {:.1f} s and "
+      "no progress reported by the shard; replacing the writer and resending {} retained batches",
+      shard_, writer_.matched(), blocked, retained_.size());
   // a stop cuts the wait for the new participant short
   for (;;) {
     Status s = Open();

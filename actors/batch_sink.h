@@ -106,11 +106,11 @@ class DdsBatchSink final : public BatchSink {
   MemoryBatchSink pool_;
   std::deque<std::unique_ptr<msg::TransitionBatch>> retained_;
   std::vector<std::unique_ptr<msg::TransitionBatch>> spare_;  // retained buffers to reuse
-  size_t next_ = 0;  // index in retained_ of the next batch to write
+  size_t next_ = 0;                                           // index in retained_ of the next batch to write
   uint64_t retries_ = 0, recoveries_ = 0;
   // stall detection
   std::optional<std::chrono::steady_clock::time_point> blocked_since_;
-  int quiet_reports_ = 0;               // ReplayStats since blocked_since_ showing no progress
+  int quiet_reports_ = 0;                                      // ReplayStats since blocked_since_ showing no progress
   std::pair<uint64_t, uint64_t> last_progress_{~0ull, ~0ull};  // (our batches stored, insert waits)
   uint32_t actor_id_ = ~0u;
 };

@@ -44,8 +44,7 @@ Result<std::vector<float>> ReadActionFile(const std::string& path, int dim) {
     }
     if (row.empty()) continue;
     if (int(row.size()) != dim) {
-      return Errorf("--policy file '{}' line {}: expected {} numbers, got {}", path, lineno, dim,
-                    row.size());
+      return Errorf("--policy file '{}' line {}: expected {} numbers, got {}", path, lineno, dim, row.size());
     }
     actions.insert(actions.end(), row.begin(), row.end());
   }
@@ -80,7 +79,8 @@ class GoalPolicy {
     }
     // gripper: proportional step toward the target, clipped to the action box
     float dist = 0.0f;
-    for (int i = 0; i < 3; ++i) dist = std::max(dist, std::abs(target_.empty() ? 1.0f : target_[i] - state[offset_ + i]));
+    for (int i = 0; i < 3; ++i)
+      dist = std::max(dist, std::abs(target_.empty() ? 1.0f : target_[i] - state[offset_ + i]));
     if (target_.empty() || age_ >= timeout_ || dist < 0.005f) NewTarget();
     ++age_;
     for (int i = 0; i < 3; ++i) {

@@ -31,13 +31,13 @@ struct EvalOptions {
 };
 
 struct EvalResult {
-  std::vector<double> returns;    // task: one per episode
+  std::vector<double> returns;  // task: one per episode
   double return_mean = 0, return_sd = 0;
   uint64_t goals_ended = 0, goals_reached = 0;  // the acting skill's (task: the top skill's)
-  uint64_t goals_interacted = 0;  // of the goals ended, those ended by a link interaction
-  double success = 0;             // goals_reached / goals_ended
-  double hit_rate = 0;            // goals_interacted / goals_ended
-  double accuracy = 0;            // goals_reached / goals_interacted (the angle, given a bounce)
+  uint64_t goals_interacted = 0;                // of the goals ended, those ended by a link interaction
+  double success = 0;                           // goals_reached / goals_ended
+  double hit_rate = 0;                          // goals_interacted / goals_ended
+  double accuracy = 0;                          // goals_reached / goals_interacted (the angle, given a bounce)
   int64_t steps = 0;
 };
 

@@ -57,7 +57,8 @@ std::span<const float> HierarchyRunner::FullGoal(int level) {
   std::fill(full_goal_.begin(), full_goal_.end(), 0.0f);
   if (is_skill(level) && levels_[size_t(level) - 1].has_goal) {
     const policy::GoalSpace& g = models_->at(level)->spec().goal;
-    for (int i = 0; i < g.dim(); ++i) full_goal_[size_t(g.masked[size_t(i)])] = levels_[size_t(level) - 1].goal[size_t(i)];
+    for (int i = 0; i < g.dim(); ++i)
+      full_goal_[size_t(g.masked[size_t(i)])] = levels_[size_t(level) - 1].goal[size_t(i)];
   }
   return full_goal_;
 }
@@ -103,8 +104,9 @@ void HierarchyRunner::Decide(std::span<const float> state, std::span<float> env_
   if (acting_ == 0) {
     const envs::ActionSpec& a = env_.action;
     for (int i = 0; i < a.dim; ++i)
-      env_action[size_t(i)] = a.discrete ? float(std::uniform_int_distribution<int>(0, a.n - 1)(rng_))
-                                         : std::uniform_real_distribution<float>(a.low[size_t(i)], a.high[size_t(i)])(rng_);
+      env_action[size_t(i)] = a.discrete
+                                  ? float(std::uniform_int_distribution<int>(0, a.n - 1)(rng_))
+                                  : std::uniform_real_distribution<float>(a.low[size_t(i)], a.high[size_t(i)])(rng_);
     return;
   }
   for (int L = acting_; L >= 1; --L) {

@@ -31,11 +31,11 @@ namespace coins {
 // actor's envs; replaced between steps.
 struct LevelModel {
   policy::PolicyNet net;
-  uint64_t version = 0;           // weights version (0: none)
-  bool trained = false;           // false: act at random (spec only, or no learner updates yet)
+  uint64_t version = 0;                                // weights version (0: none)
+  bool trained = false;                                // false: act at random (spec only, or no learner updates yet)
   std::unique_ptr<detector::OnlineDetector> detector;  // the link's detector, when loaded
   uint64_t detector_version = 0;
-  int interaction_bit = -1;       // the env's ground-truth bit of the link, -1 when unlabelled
+  int interaction_bit = -1;  // the env's ground-truth bit of the link, -1 when unlabelled
   const policy::LevelSpec& spec() const { return net.spec(); }
 };
 
@@ -54,9 +54,8 @@ class RowSink {
   virtual ~RowSink() = default;
   // stream 0: env steps; stream L >= 2: decisions of level L. goal has the layout's goal_dim
   // floats (the target factor's features, masked ones set), action its action_dim floats.
-  virtual void Row(int stream, std::span<const float> state, std::span<const float> action,
-                   std::span<const float> goal, float reward, uint16_t flags, uint8_t skill_level,
-                   uint32_t interactions) = 0;
+  virtual void Row(int stream, std::span<const float> state, std::span<const float> action, std::span<const float> goal,
+                   float reward, uint16_t flags, uint8_t skill_level, uint32_t interactions) = 0;
 };
 
 struct HierarchyCounters {
@@ -97,15 +96,15 @@ class HierarchyRunner {
  private:
   struct LevelState {
     bool has_goal = false;
-    std::vector<float> goal;      // masked values
+    std::vector<float> goal;  // masked values
     int goal_steps = 0;
     bool action_active = false;
-    std::vector<float> action;    // the level's own action (row width)
+    std::vector<float> action;  // the level's own action (row width)
     int action_steps = 0;
     float reward_sum = 0.0f;
     bool interaction_seen = false;
   };
-  struct Ends {                   // per level, this step
+  struct Ends {  // per level, this step
     bool terminated = false, success = false, natural = false, goal_end = false, action_end = false;
     bool interaction = false;
   };
@@ -116,8 +115,8 @@ class HierarchyRunner {
   void DetectInteractions(std::span<const float> state, std::span<const float> env_action, std::span<const float> next,
                           uint32_t interactions);
   void EndGoals(std::span<const float> next, bool done);
-  void EmitRows(std::span<const float> next, std::span<const float> env_action, float reward, bool done,
-                bool truncated, uint32_t interactions, RowSink* sink);
+  void EmitRows(std::span<const float> next, std::span<const float> env_action, float reward, bool done, bool truncated,
+                uint32_t interactions, RowSink* sink);
   std::span<const float> FullGoal(int level);
 
   const envs::EnvSpec& env_;

@@ -26,8 +26,13 @@ class Recorder final : public RowSink {
  public:
   void Row(int stream, std::span<const float> state, std::span<const float> action, std::span<const float> goal,
            float reward, uint16_t flags, uint8_t skill, uint32_t) override {
-    rows.push_back({stream, {state.begin(), state.end()}, {action.begin(), action.end()}, {goal.begin(), goal.end()},
-                    reward, flags, skill});
+    rows.push_back({stream,
+                    {state.begin(), state.end()},
+                    {action.begin(), action.end()},
+                    {goal.begin(), goal.end()},
+                    reward,
+                    flags,
+                    skill});
   }
   std::vector<RecordedRow> rows;
 };

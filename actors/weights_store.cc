@@ -33,8 +33,7 @@ Status WeightsStore::ApplyLevel(const msg::PolicyWeights& w) {
   auto spec = policy::ParseLevelSpec(w.spec());
   if (!spec.ok()) return spec.status().WithContext("weights '" + w.name() + "'");
   if (spec->level < 1 || spec->level > 8) return Errorf("weights '{}': level {} out of range", w.name(), spec->level);
-  if (!spec->obs_index.empty() &&
-      *std::max_element(spec->obs_index.begin(), spec->obs_index.end()) >= env_.state_dim())
+  if (!spec->obs_index.empty() && *std::max_element(spec->obs_index.begin(), spec->obs_index.end()) >= env_.state_dim())
     return Errorf("weights '{}': observation reads beyond the env's state", w.name());
   if (models_.levels.size() < size_t(spec->level)) models_.levels.resize(size_t(spec->level));
   std::unique_ptr<LevelModel>& slot = models_.levels[size_t(spec->level) - 1];

@@ -17,8 +17,10 @@ class CaptureSink final : public BatchSink {
   explicit CaptureSink(size_t max) : max_(max) {}
   msg::TransitionBatch* Acquire() override { return new msg::TransitionBatch(); }
   bool Publish(msg::TransitionBatch* b) override {
-    if (full()) delete b;
-    else batches.emplace_back(b);
+    if (full())
+      delete b;
+    else
+      batches.emplace_back(b);
     return true;
   }
   void Release(msg::TransitionBatch* b) override { delete b; }
@@ -44,7 +46,8 @@ inline std::vector<std::unique_ptr<msg::TransitionBatch>> BreakoutBatches(size_t
     std::exit(2);
   }
   if (spec) *spec = (*actor)->spec();
-  (*actor)->Run(0, [&] { return sink.full(); }, [](const ActorCounters&) {}, std::chrono::hours(1));
+  (*actor)->Run(
+      0, [&] { return sink.full(); }, [](const ActorCounters&) {}, std::chrono::hours(1));
   return std::move(sink.batches);
 }
 

@@ -47,8 +47,9 @@ inline Result<ReplayShardProcess> StartReplayShard(const std::string& tool, int 
   s.dds.domain = s.lease.domain();
   s.dir = std::filesystem::temp_directory_path() / (tool + "-" + std::to_string(getpid()));
   std::filesystem::create_directories(s.dir);
-  std::vector<std::string> argv = {SelfDirectory() + "/coins-replay", "--id", "0", "--quiet-config", "--set",
-                                   "run.shards=1", "--set", "dds.domain=" + std::to_string(s.dds.domain)};
+  std::vector<std::string> argv = {
+      SelfDirectory() + "/coins-replay",           "--id", "0", "--quiet-config", "--set", "run.shards=1", "--set",
+      "dds.domain=" + std::to_string(s.dds.domain)};
   for (const auto& set : sets) argv.insert(argv.end(), {"--set", set});
   auto child = ChildProcess::Spawn("replay-0", argv, (s.dir / "replay-0.log").string());
   if (!child.ok()) {

@@ -13,11 +13,11 @@
 namespace coins::envs {
 
 struct FactorSpec {
-  std::string name;          // "Paddle", "Ball", "Block", "Gripper", ...
-  int features = 0;          // features per instance
-  int instances = 1;         // > 1 for multi-instance classes (Block, Obstacle)
+  std::string name;             // "Paddle", "Ball", "Block", "Gripper", ...
+  int features = 0;             // features per instance
+  int instances = 1;            // > 1 for multi-instance classes (Block, Obstacle)
   bool multi_instance = false;  // a class of instances (Block, Obstacle), even with 1 instance
-  std::vector<float> low;    // per-feature normalisation bounds, size features
+  std::vector<float> low;       // per-feature normalisation bounds, size features
   std::vector<float> high;
   std::vector<std::string> feature_names;  // e.g. {"y", "x", "vy", "vx", "attr"}
   int size() const { return features * instances; }
@@ -25,9 +25,9 @@ struct FactorSpec {
 
 struct ActionSpec {
   bool discrete = true;
-  int n = 0;                 // number of discrete actions (discrete only)
-  int dim = 1;               // floats per action: 1 for discrete, d for continuous
-  std::vector<float> low;    // continuous bounds, size dim
+  int n = 0;               // number of discrete actions (discrete only)
+  int dim = 1;             // floats per action: 1 for discrete, d for continuous
+  std::vector<float> low;  // continuous bounds, size dim
   std::vector<float> high;
 };
 

@@ -19,8 +19,7 @@ void MaskedGoal(std::span<const float> state, std::span<const float> mask, std::
   for (size_t i = 0; i < state.size(); ++i) goal[i] = state[i] * mask[i];
 }
 
-int GatherMasked(std::span<const float> state, std::span<const float> mask,
-                 std::span<float> goal) {
+int GatherMasked(std::span<const float> state, std::span<const float> mask, std::span<float> goal) {
   assert(state.size() == mask.size());
   int n = 0;
   for (size_t i = 0; i < state.size(); ++i)
@@ -31,8 +30,8 @@ int GatherMasked(std::span<const float> state, std::span<const float> mask,
   return n;
 }
 
-float GoalDistance(std::span<const float> achieved, std::span<const float> goal,
-                   std::span<const float> mask, GoalNorm norm) {
+float GoalDistance(std::span<const float> achieved, std::span<const float> goal, std::span<const float> mask,
+                   GoalNorm norm) {
   assert(achieved.size() == goal.size() && (mask.empty() || mask.size() == goal.size()));
   float d = 0.0f;
   for (size_t i = 0; i < goal.size(); ++i) {
@@ -42,20 +41,18 @@ float GoalDistance(std::span<const float> achieved, std::span<const float> goal,
   return d;
 }
 
-bool GoalReached(std::span<const float> achieved, std::span<const float> goal,
-                 std::span<const float> mask, float epsilon, GoalNorm norm) {
+bool GoalReached(std::span<const float> achieved, std::span<const float> goal, std::span<const float> mask,
+                 float epsilon, GoalNorm norm) {
   return GoalDistance(achieved, goal, mask, norm) <= epsilon;
 }
 
-int64_t SelectHindsightIndex(HerStrategy strategy, int64_t t, int64_t begin, int64_t end,
-                             std::mt19937_64* rng) {
+int64_t SelectHindsightIndex(HerStrategy strategy, int64_t t, int64_t begin, int64_t end, std::mt19937_64* rng) {
   assert(begin <= t && t < end);
   switch (strategy) {
     case HerStrategy::kNone: return t;
     case HerStrategy::kFinal: return end - 1;
     case HerStrategy::kFuture: return std::uniform_int_distribution<int64_t>(t, end - 1)(*rng);
-    case HerStrategy::kEpisode:
-      return std::uniform_int_distribution<int64_t>(begin, end - 1)(*rng);
+    case HerStrategy::kEpisode: return std::uniform_int_distribution<int64_t>(begin, end - 1)(*rng);
   }
   return t;
 }

@@ -28,14 +28,13 @@ Result<HerStrategy> ParseHerStrategy(const std::string& name);  // "none", "fina
 // goal[i] = state[i] * mask[i] (all spans the same size): the paper's eta_b-masked target
 void MaskedGoal(std::span<const float> state, std::span<const float> mask, std::span<float> goal);
 // compact form: writes state[i] for every i with mask[i] != 0, in order; returns the count
-int GatherMasked(std::span<const float> state, std::span<const float> mask,
-                 std::span<float> goal);
+int GatherMasked(std::span<const float> state, std::span<const float> mask, std::span<float> goal);
 // distance between achieved and goal with each difference scaled by mask (empty: all ones)
-float GoalDistance(std::span<const float> achieved, std::span<const float> goal,
-                   std::span<const float> mask, GoalNorm norm);
+float GoalDistance(std::span<const float> achieved, std::span<const float> goal, std::span<const float> mask,
+                   GoalNorm norm);
 // GoalDistance(...) <= epsilon
-bool GoalReached(std::span<const float> achieved, std::span<const float> goal,
-                 std::span<const float> mask, float epsilon, GoalNorm norm);
+bool GoalReached(std::span<const float> achieved, std::span<const float> goal, std::span<const float> mask,
+                 float epsilon, GoalNorm norm);
 // the skill reward of the paper: reached ? success_reward : step_reward (paddle: 0 / -1)
 inline float SkillReward(bool reached, float step_reward = -1.0f, float success_reward = 0.0f) {
   return reached ? success_reward : step_reward;
@@ -43,7 +42,6 @@ inline float SkillReward(bool reached, float step_reward = -1.0f, float success_
 
 // the index whose achieved goal relabels transition t of the segment [begin, end)
 // (begin <= t < end); kNone returns t.
-int64_t SelectHindsightIndex(HerStrategy strategy, int64_t t, int64_t begin, int64_t end,
-                             std::mt19937_64* rng);
+int64_t SelectHindsightIndex(HerStrategy strategy, int64_t t, int64_t begin, int64_t end, std::mt19937_64* rng);
 
 }  // namespace coins

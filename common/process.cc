@@ -31,7 +31,8 @@ bool SleepUnlessStopped(std::chrono::milliseconds d) {
   while (!StopRequested()) {
     auto now = std::chrono::steady_clock::now();
     if (now >= end) return false;
-    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(end - now, std::chrono::milliseconds(20)));
+    std::this_thread::sleep_for(
+        std::min<std::chrono::steady_clock::duration>(end - now, std::chrono::milliseconds(20)));
   }
   return true;
 }

@@ -29,9 +29,7 @@ class [[nodiscard]] Status {
     return message_ ? *message_ : kEmpty;
   }
   // returns this status with "context: " put in front of the message (ok stays ok)
-  Status WithContext(const std::string& context) const {
-    return ok() ? *this : Status(context + ": " + *message_);
-  }
+  Status WithContext(const std::string& context) const { return ok() ? *this : Status(context + ": " + *message_); }
 
  private:
   explicit Status(std::string message) : message_(std::move(message)) {}
@@ -48,16 +46,25 @@ Status Errorf(fmt::format_string<Args...> format, Args&&... args) {
 template <typename T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : value_(std::move(value)) {}  // NOLINT: implicit by design
+  Result(T value) : value_(std::move(value)) {}         // NOLINT: implicit by design
   Result(Status status) : status_(std::move(status)) {  // NOLINT: implicit by design
     assert(!status_.ok() && "Result built from an ok Status needs a value");
   }
 
   bool ok() const { return status_.ok(); }
   const Status& status() const { return status_; }
-  T& value() & { assert(ok()); return *value_; }
-  const T& value() const& { assert(ok()); return *value_; }
-  T&& value() && { assert(ok()); return std::move(*value_); }
+  T& value() & {
+    assert(ok());
+    return *value_;
+  }
+  const T& value() const& {
+    assert(ok());
+    return *value_;
+  }
+  T&& value() && {
+    assert(ok());
+    return std::move(*value_);
+  }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
   T& operator*() { return value(); }
@@ -70,8 +77,8 @@ class [[nodiscard]] Result {
 }  // namespace coins
 
 // returns early from the enclosing function with the status when it is not ok
-#define COINS_RETURN_IF_ERROR(expr)          \
-  do {                                       \
-    ::coins::Status coins_status_ = (expr);  \
+#define COINS_RETURN_IF_ERROR(expr)                \
+  do {                                             \
+    ::coins::Status coins_status_ = (expr);        \
     if (!coins_status_.ok()) return coins_status_; \
   } while (0)

@@ -24,8 +24,8 @@ class SumTree {
 
  private:
   int64_t size_ = 0;
-  int64_t leaves_ = 1;          // a power of two >= size_
-  std::vector<double> nodes_;   // heap order, root at 1
+  int64_t leaves_ = 1;         // a power of two >= size_
+  std::vector<double> nodes_;  // heap order, root at 1
 };
 
 }  // namespace coins

@@ -65,19 +65,19 @@ uint32_t LayoutHash(std::string_view env_name, uint32_t state_dim, uint32_t acti
 
 void ProvenanceBlock(const TransitionBatch& b, uint64_t out[kProvenanceWords]) {
   out[0] = b.command_seq();
-  for (size_t i = 0; i < COINS_MAX_LEVELS; ++i) out[1 + i] = i < b.policy_versions().size() ? b.policy_versions()[i] : 0;
+  for (size_t i = 0; i < COINS_MAX_LEVELS; ++i)
+    out[1 + i] = i < b.policy_versions().size() ? b.policy_versions()[i] : 0;
 }
 
 uint64_t HeaderHash(uint32_t schema_version, const BatchHeader& h, uint32_t n_rows) {
   // fixed-width words, so the piece has no padding and one layout on every machine
-  const uint64_t words[12] = {schema_version, h.actor_id,  h.incarnation, h.seq,        h.env_id,
-                              h.layout_hash,  n_rows,      h.state_dim,   h.action_dim, h.goal_dim,
-                              h.episode_base, 0x5eedba7cULL};
+  const uint64_t words[12] = {schema_version, h.actor_id,  h.incarnation, h.seq,      h.env_id,       h.layout_hash,
+                              n_rows,         h.state_dim, h.action_dim,  h.goal_dim, h.episode_base, 0x5eedba7cULL};
   return HashBytes(words, sizeof(words));
 }
 
 uint64_t PayloadHash(const TransitionBatch& b) {
-  BatchHeader header{b.actor_id(),  b.incarnation(), b.seq(),      b.env_id(),     b.layout_hash(),
+  BatchHeader header{b.actor_id(),  b.incarnation(), b.seq(),      b.env_id(),      b.layout_hash(),
                      b.state_dim(), b.action_dim(),  b.goal_dim(), b.episode_base()};
   uint64_t h = HashVec(b.first_state(), HeaderHash(b.schema_version(), header, b.n_rows()));
   h = HashVec(b.delta_end(), h);
@@ -116,7 +116,8 @@ Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout, bool ch
     return Errorf("batch from actor {} seq {}: {}", b.actor_id(), b.seq(), what);
   };
   if (b.schema_version() != msg::TRANSITION_BATCH_SCHEMA)
-    return bad(fmt::format("schema version {} (this build reads {})", b.schema_version(), msg::TRANSITION_BATCH_SCHEMA));
+    return bad(
+        fmt::format("schema version {} (this build reads {})", b.schema_version(), msg::TRANSITION_BATCH_SCHEMA));
   const size_t n = b.n_rows();
   if (n == 0 || n > COINS_BATCH_MAX_ROWS || b.state_dim() == 0 || b.state_dim() > COINS_BATCH_MAX_STATE ||
       b.action_dim() > COINS_BATCH_MAX_VALUES || b.goal_dim() > COINS_BATCH_MAX_VALUES)
@@ -143,9 +144,8 @@ Status ValidateBatch(const TransitionBatch& b, uint32_t expected_layout, bool ch
   if (!b.delta_index().empty() && max_index >= b.state_dim())
     return bad(fmt::format("delta index {} outside the state ({} features)", max_index, b.state_dim()));
   if (!AllFinite(b.first_state().data(), b.first_state().size()) ||
-      !AllFinite(b.delta_value().data(), b.delta_value().size()) ||
-      !AllFinite(b.action().data(), b.action().size()) || !AllFinite(b.goal().data(), b.goal().size()) ||
-      !AllFinite(b.reward().data(), b.reward().size()))
+      !AllFinite(b.delta_value().data(), b.delta_value().size()) || !AllFinite(b.action().data(), b.action().size()) ||
+      !AllFinite(b.goal().data(), b.goal().size()) || !AllFinite(b.reward().data(), b.reward().size()))
     return bad("non-finite values");
   if (check_hash && PayloadHash(b) != b.payload_hash()) return bad("payload hash mismatch");
   return Status::Ok();
@@ -191,7 +191,8 @@ void BatchBuilder::Begin(TransitionBatch* batch, const BatchHeader& header, uint
 
 void BatchBuilder::SetProvenance(uint64_t command_seq, std::span<const uint64_t> policy_versions) {
   h_.command_seq = command_seq;
-  for (size_t i = 0; i < COINS_MAX_LEVELS; ++i) h_.policy_versions[i] = i < policy_versions.size() ? policy_versions[i] : 0;
+  for (size_t i = 0; i < COINS_MAX_LEVELS; ++i)
+    h_.policy_versions[i] = i < policy_versions.size() ? policy_versions[i] : 0;
 }
 
 bool BatchBuilder::full() const {

@@ -85,8 +85,8 @@ class BatchBuilder {
   // with at most max_rows rows (0 or more than the bound: COINS_BATCH_MAX_ROWS)
   void Begin(TransitionBatch* batch, const BatchHeader& header, uint32_t max_rows);
   // appends a row; the caller checks full() first
-  void AddRow(std::span<const float> state, std::span<const float> action, std::span<const float> goal,
-              float reward, uint16_t flags, uint8_t skill_level, uint32_t interactions);
+  void AddRow(std::span<const float> state, std::span<const float> action, std::span<const float> goal, float reward,
+              uint16_t flags, uint8_t skill_level, uint32_t interactions);
   // true when the next row might not fit (rows, or room for a row of all-changed features)
   bool full() const;
   uint32_t rows() const { return rows_; }

@@ -20,8 +20,14 @@ std::vector<float> State(uint32_t r, uint32_t dim, uint32_t changing) {
 std::unique_ptr<TransitionBatch> MakeBatch(uint32_t rows, uint32_t s, uint32_t a, uint32_t g, uint32_t changing = 2) {
   auto batch = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
-  BatchHeader h{.actor_id = 3, .seq = 7, .env_id = 1, .layout_hash = LayoutHash("test", s, a, g),
-                .state_dim = s, .action_dim = a, .goal_dim = g, .episode_base = 2};
+  BatchHeader h{.actor_id = 3,
+                .seq = 7,
+                .env_id = 1,
+                .layout_hash = LayoutHash("test", s, a, g),
+                .state_dim = s,
+                .action_dim = a,
+                .goal_dim = g,
+                .episode_base = 2};
   builder.Begin(batch.get(), h, 0);
   for (uint32_t r = 0; r < rows; ++r) {
     std::vector<float> ac(a), go(g);
@@ -73,7 +79,8 @@ TEST(TransitionBatch, FullWhenRowsOrDeltaRoomRunOut) {
   builder.Begin(b.get(), {.layout_hash = 1, .state_dim = 4, .action_dim = 1}, 100);
   std::vector<float> a(1);
   uint32_t added = 0;
-  for (; !builder.full(); ++added) builder.AddRow(State(added, 4, 4), a, {}, 0, added == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
+  for (; !builder.full(); ++added)
+    builder.AddRow(State(added, 4, 4), a, {}, 0, added == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
   EXPECT_EQ(added, 100u);
   // delta bound: a 4000-feature state that changes whole each row fills 65536 deltas in 17 rows
   builder.Begin(b.get(), {.layout_hash = 1, .state_dim = 4000, .action_dim = 1}, 0);

@@ -14,8 +14,8 @@ packages=(
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libpng-dev libgif-dev
   # config, CLI, logging, JSON
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks; the test command's format check (deploy/format.sh)
+  libgtest-dev libgmock-dev libbenchmark-dev clang-format-14
   # learning-curve PNGs of `coins run` (gnuplot without X11)
   gnuplot-nox
 )

@@ -18,7 +18,7 @@ namespace coins::detector {
 struct DetectorSpec {
   PairLayout layout;
   DetectorOptions options;
-  std::vector<int> gather;   // compact feature i = full state[gather[i]]
+  std::vector<int> gather;  // compact feature i = full state[gather[i]]
   int full_state_dim = 0;
 };
 

@@ -8,8 +8,7 @@
 
 namespace coins::detector {
 
-GaussianModel::GaussianModel(const GaussianModelOptions& options, uint64_t seed)
-    : options_(options) {
+GaussianModel::GaussianModel(const GaussianModelOptions& options, uint64_t seed) : options_(options) {
   nn::MlpOptions mo;
   mo.sizes.push_back(options.input_dim);
   for (int h : options.hidden) mo.sizes.push_back(h);
@@ -23,9 +22,9 @@ GaussianModel::GaussianModel(const GaussianModelOptions& options, uint64_t seed)
   adam_ = nn::Adam(ao, net_.params().size());
 }
 
-float GaussianModel::Train(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target,
-                           const std::vector<int64_t>& pool, const std::vector<float>& weights,
-                           int steps, int batch, uint64_t seed, const std::function<bool()>& stop) {
+float GaussianModel::Train(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target, const std::vector<int64_t>& pool,
+                           const std::vector<float>& weights, int steps, int batch, uint64_t seed,
+                           const std::function<bool()>& stop) {
   assert(weights.empty() || weights.size() == pool.size());
   if (pool.empty()) return 0.0f;
   std::mt19937_64 rng(seed);
@@ -87,8 +86,7 @@ void GaussianModel::WarmStartFrom(const GaussianModel& other, int first_row) {
   }
 }
 
-void GaussianModel::LogLikelihood(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target,
-                                  Eigen::VectorXf* ll) {
+void GaussianModel::LogLikelihood(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target, Eigen::VectorXf* ll) {
   const int64_t m = in.cols();
   ll->resize(m);
   constexpr int64_t kChunk = 4096;

@@ -36,12 +36,11 @@ class GaussianModel {
   // pool: candidate sample indices (columns); weights: one per pool entry or empty (uniform).
   // Returns the mean loss of the last 100 steps. stop (optional) is asked every 64 steps; when
   // it says true, training ends there (the caller checks it again and discards the model).
-  float Train(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target,
-              const std::vector<int64_t>& pool, const std::vector<float>& weights, int steps,
-              int batch, uint64_t seed, const std::function<bool()>& stop = nullptr);
+  float Train(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target, const std::vector<int64_t>& pool,
+              const std::vector<float>& weights, int steps, int batch, uint64_t seed,
+              const std::function<bool()>& stop = nullptr);
   // per-sample log-likelihood, summed over the d dimensions: ll has M entries
-  void LogLikelihood(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target,
-                     Eigen::VectorXf* ll);
+  void LogLikelihood(const Eigen::MatrixXf& in, const Eigen::MatrixXf& target, Eigen::VectorXf* ll);
   // predicted mean (d x M)
   void Mean(const Eigen::MatrixXf& in, Eigen::MatrixXf* mean);
 

@@ -54,9 +54,8 @@ GoalSet BuildGoalSet(const std::vector<int>& features, const Eigen::MatrixXf& va
       covered += counts[u];
     }
   }
-  const bool discrete = !overflow &&
-      (g.raw_unique < options.n_disc ||
-       (int(kept.size()) < options.n_disc && double(covered) >= 0.95 * double(n)));
+  const bool discrete = !overflow && (g.raw_unique < options.n_disc ||
+                                      (int(kept.size()) < options.n_disc && double(covered) >= 0.95 * double(n)));
   if (discrete) {
     g.kind = GoalSet::Kind::kDiscrete;
     // sort goals lexicographically for stable output

@@ -6,8 +6,8 @@
 #include <random>
 #include <span>
 
-#include <Eigen/Dense>
 #include <SuiteSparseQR_C.h>
+#include <Eigen/Dense>
 
 namespace coins::detector {
 
@@ -56,8 +56,7 @@ double BetaContinuedFraction(double a, double b, double x) {
 double IncompleteBeta(double a, double b, double x) {
   if (x <= 0.0) return 0.0;
   if (x >= 1.0) return 1.0;
-  const double lbt = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) +
-                     b * std::log1p(-x);
+  const double lbt = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
   const double bt = std::exp(lbt);
   if (x < (a + 1.0) / (a + b + 2.0)) return bt * BetaContinuedFraction(a, b, x) / a;
   return 1.0 - bt * BetaContinuedFraction(b, a, 1.0 - x) / b;
@@ -66,9 +65,9 @@ double IncompleteBeta(double a, double b, double x) {
 // one target's regression problem
 struct Block {
   std::string target;
-  std::vector<std::string> names;  // modelled target features
+  std::vector<std::string> names;            // modelled target features
   Eigen::MatrixXd restricted, unrestricted;  // n x p_r, n x p_u
-  Eigen::MatrixXd y;                          // n x d
+  Eigen::MatrixXd y;                         // n x d
 };
 
 // the normalised source vector of a transition: the source factor's features scaled to [-1, 1]
@@ -155,8 +154,10 @@ std::vector<std::pair<int64_t, int>> SampleInstances(const TransitionSet& data, 
     for (int i = 0; i < instances; ++i) {
       bool changed = instances == 1;
       for (int k = 0; k < tf.nf && !changed; ++k) changed = tf.Feature(s, i, k) != tf.Feature(s2, i, k);
-      if (changed) samples.push_back({t, i});
-      else unchanged.push_back(i);
+      if (changed)
+        samples.push_back({t, i});
+      else
+        unchanged.push_back(i);
     }
     for (int j = 0; j < options.static_instances_per_step && !unchanged.empty(); ++j) {
       const size_t p = std::uniform_int_distribution<size_t>(0, unchanged.size() - 1)(rng);
@@ -287,7 +288,8 @@ Status SolveBlocks(const std::vector<Block>& blocks, Betas* betas) {
   cholmod_common* cc = ws.get();
   CholmodPtr<cholmod_triplet> tri(cholmod_l_allocate_triplet(rows, cols, nnz, 0, CHOLMOD_REAL, cc), {cc});
   CholmodPtr<cholmod_dense> rhs(cholmod_l_zeros(rows, kmax, CHOLMOD_REAL, cc), {cc});
-  if (tri == nullptr || rhs == nullptr) return Errorf("granger: cholmod could not allocate a {} x {} problem", rows, cols);
+  if (tri == nullptr || rhs == nullptr)
+    return Errorf("granger: cholmod could not allocate a {} x {} problem", rows, cols);
   auto* ti = static_cast<SuiteSparse_long*>(tri->i);
   auto* tj = static_cast<SuiteSparse_long*>(tri->j);
   auto* tx = static_cast<double*>(tri->x);
@@ -384,10 +386,8 @@ double FDistributionUpperTail(double f, double d1, double d2) {
   return IncompleteBeta(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f));
 }
 
-Result<std::vector<GrangerResult>> LinearGrangerTest(const envs::EnvSpec& spec,
-                                                     const TransitionSet& data,
-                                                     const std::string& source,
-                                                     const std::vector<std::string>& targets,
+Result<std::vector<GrangerResult>> LinearGrangerTest(const envs::EnvSpec& spec, const TransitionSet& data,
+                                                     const std::string& source, const std::vector<std::string>& targets,
                                                      const GrangerOptions& options) {
   COINS_RETURN_IF_ERROR(options.Validate());
   Result<SourceColumns> src = SourceColumns::Of(spec, source);

@@ -27,8 +27,8 @@
 namespace coins::detector {
 
 struct GrangerOptions {
-  int window = 1;          // w: the history window
-  double alpha = 1e-3;     // significance level of the pair test
+  int window = 1;       // w: the history window
+  double alpha = 1e-3;  // significance level of the pair test
   int static_instances_per_step = 4;
   uint64_t seed = 1;
   Status Validate() const;
@@ -37,20 +37,18 @@ struct GrangerOptions {
 struct GrangerResult {
   std::string source, target;
   int64_t samples = 0;
-  int df1 = 0, df2 = 0;             // q and n - p_u
-  double f_stat = 0.0;              // the largest F over target features
-  double p_value = 1.0;             // Bonferroni-corrected smallest p-value
-  bool causes = false;              // p_value < alpha
-  std::string feature;              // the feature with the largest F
-  std::vector<double> feature_f;    // per modelled target feature
+  int df1 = 0, df2 = 0;           // q and n - p_u
+  double f_stat = 0.0;            // the largest F over target features
+  double p_value = 1.0;           // Bonferroni-corrected smallest p-value
+  bool causes = false;            // p_value < alpha
+  std::string feature;            // the feature with the largest F
+  std::vector<double> feature_f;  // per modelled target feature
   std::vector<std::string> feature_names;
 };
 
 // errors on unknown factors or a multi-instance source; SuiteSparse failures are errors
-Result<std::vector<GrangerResult>> LinearGrangerTest(const envs::EnvSpec& spec,
-                                                     const TransitionSet& data,
-                                                     const std::string& source,
-                                                     const std::vector<std::string>& targets,
+Result<std::vector<GrangerResult>> LinearGrangerTest(const envs::EnvSpec& spec, const TransitionSet& data,
+                                                     const std::string& source, const std::vector<std::string>& targets,
                                                      const GrangerOptions& options);
 
 // upper tail of the F(d1, d2) distribution at f (the p-value of an F statistic)

@@ -23,8 +23,7 @@ GaussianModelOptions ModelOptions(const PairLayout& L, const DetectorOptions& o,
 
 }  // namespace
 
-Result<PairDetector> PairDetector::Create(const PairLayout& layout,
-                                          const DetectorOptions& options) {
+Result<PairDetector> PairDetector::Create(const PairLayout& layout, const DetectorOptions& options) {
   COINS_RETURN_IF_ERROR(options.Validate());
   PairDetector det;
   det.layout_ = layout;
@@ -77,8 +76,7 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
   if (pool.empty()) {
     for (int64_t j = 0; j < m; ++j) pool.push_back(j);
   }
-  det.passive_.Train(s.passive_in, s.target, pool, {}, options.passive_steps, options.batch,
-                     options.seed + 2, stop);
+  det.passive_.Train(s.passive_in, s.target, pool, {}, options.passive_steps, options.batch, options.seed + 2, stop);
   if (stopped()) return stopped_error();
 
   det.stats_.passive_pool = int64_t(pool.size());
@@ -98,9 +96,8 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
     for (size_t i = 0; i < pool.size(); ++i) {
       pw[i] = ll_pas[pool[i]] < options.eps_pas ? options.passive_hard_lambda + 1.0f : 1.0f;
     }
-    det.stats_.passive_loss = det.passive_.Train(s.passive_in, s.target, pool, pw,
-                                                 options.passive_hard_steps, options.batch,
-                                                 options.seed + 5, stop);
+    det.stats_.passive_loss = det.passive_.Train(s.passive_in, s.target, pool, pw, options.passive_hard_steps,
+                                                 options.batch, options.seed + 5, stop);
     if (stopped()) return stopped_error();
   }
 
@@ -114,8 +111,8 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
     w[j] = (ll_pas[j] < 0.0f && close) ? options.lambda + 1.0f : 1.0f;
   }
   det.active_ = std::move(active);
-  det.stats_.active_loss = det.active_.Train(s.active_in, s.target, pool, w,
-                                             options.active_steps, options.batch, options.seed + 4, stop);
+  det.stats_.active_loss =
+      det.active_.Train(s.active_in, s.target, pool, w, options.active_steps, options.batch, options.seed + 4, stop);
   if (stopped()) return stopped_error();
   det.stats_.samples = m;
   for (float wj : w) det.stats_.upweighted += wj > 1.0f;
@@ -252,9 +249,7 @@ PairScores PairDetector::Score(const TransitionSet& data) {
     r.mask_diff[k] = float(dev[k] / double(hits.size()));
     max_dev = std::max(max_dev, double(r.mask_diff[k]));
   }
-  const double thr = options_.mask_rule == MaskRule::kRelative
-                         ? options_.eps_eta_relative * max_dev
-                         : options_.eps_eta;
+  const double thr = options_.mask_rule == MaskRule::kRelative ? options_.eps_eta_relative * max_dev : options_.eps_eta;
   std::vector<int> feats;
   std::vector<float> half;
   for (int k = 0; k < L.target_features; ++k) {
@@ -313,8 +308,7 @@ PairEvaluation PairDetector::Evaluate(const envs::EnvSpec& spec, const Transitio
   }
   if (!e.has_truth) return e;
   e.fp_per_state = e.states ? double(e.false_positives) / double(e.states) : 0.0;
-  e.fn_per_interaction =
-      e.true_interactions ? double(e.false_negatives) / double(e.true_interactions) : 0.0;
+  e.fn_per_interaction = e.true_interactions ? double(e.false_negatives) / double(e.true_interactions) : 0.0;
   return e;
 }
 

@@ -41,20 +41,20 @@ namespace coins::detector {
 struct PairScores {
   std::string source, target;
   int64_t transitions = 0, samples = 0;
-  double score = 0.0;       // Sc_I (eq. 9)
-  double mg_score = 0.0;    // eq. 7
+  double score = 0.0;     // Sc_I (eq. 9)
+  double mg_score = 0.0;  // eq. 7
   double mean_ll_act = 0.0, mean_ll_pas = 0.0;
-  int64_t interactions = 0; // N_int: detected (sample-level)
-  bool pass = false;        // score > eps_si
-  std::vector<int> mask;    // eta_b, one per target feature
+  int64_t interactions = 0;      // N_int: detected (sample-level)
+  bool pass = false;             // score > eps_si
+  std::vector<int> mask;         // eta_b, one per target feature
   std::vector<float> mask_diff;  // d_k of eq. 10 (normalised units)
   std::vector<std::string> feature_names;
   GoalSet goals;
-  std::string note;         // why the pair was not trained, when it was not
+  std::string note;  // why the pair was not trained, when it was not
 };
 
 struct PairEvaluation {
-  bool has_truth = false;   // the env labels source->target
+  bool has_truth = false;  // the env labels source->target
   int64_t states = 0, true_interactions = 0, detected = 0;
   int64_t false_positives = 0, false_negatives = 0;
   double fp_per_state = 0.0, fn_per_interaction = 0.0;
@@ -66,17 +66,16 @@ class PairDetector {
  public:
   struct Detection {
     PairSamples samples;
-    Eigen::VectorXf ll_act, ll_pas;   // per sample
-    std::vector<uint8_t> h;           // per sample
-    std::vector<uint8_t> why;         // per sample: the failed conditions (Why* bits)
+    Eigen::VectorXf ll_act, ll_pas;  // per sample
+    std::vector<uint8_t> h;          // per sample
+    std::vector<uint8_t> why;        // per sample: the failed conditions (Why* bits)
   };
   enum : uint8_t { kWhyActLow = 1, kWhyPasHigh = 2, kWhyFar = 4, kWhyCounterfactual = 8 };
 
   // errors come from FitPairLayout and DetectorOptions::Validate; stop (optional) is asked
   // during training, and when it says true Train ends early with a "not ready: stopped" error
-  static Result<PairDetector> Train(const envs::EnvSpec& spec, const TransitionSet& data,
-                                    const std::string& source, const std::string& target,
-                                    const DetectorOptions& options,
+  static Result<PairDetector> Train(const envs::EnvSpec& spec, const TransitionSet& data, const std::string& source,
+                                    const std::string& target, const DetectorOptions& options,
                                     const std::function<bool()>& stop = nullptr);
 
   // an untrained detector with this layout (e.g. to load published weights into)

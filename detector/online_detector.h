@@ -43,7 +43,7 @@ class OnlineDetector {
   std::mt19937_64 rng_;
   int history_ = 0, stored_ = 0, next_ = 0;
   std::vector<float> ring_state_, ring_action_, ring_next_;  // history x compact / action dims
-  std::vector<float> state_, next_state_;                     // compact of the tested transition
+  std::vector<float> state_, next_state_;                    // compact of the tested transition
   Eigen::MatrixXf pas_in_, act_in_, target_, scratch_pas_, scratch_target_;
   Eigen::VectorXf ll_, own_source_;
   float last_act_ = 0.0f, last_pas_ = 0.0f;

@@ -8,12 +8,10 @@ namespace {
 constexpr int64_t kMaxSteps = 100'000'000;
 constexpr int64_t kMaxLayer = 8192;  // 8192 x 8192 is already 64 M weights a layer
 constexpr double kBig = 1e9;
-constexpr double kTiny = 1e-9;       // the lower bound of a value that must be positive
+constexpr double kTiny = 1e-9;  // the lower bound of a value that must be positive
 }  // namespace
 
-const char* MaskRuleName(MaskRule r) {
-  return r == MaskRule::kRelative ? "relative" : "absolute";
-}
+const char* MaskRuleName(MaskRule r) { return r == MaskRule::kRelative ? "relative" : "absolute"; }
 
 void DetectorOptions::Visit(ConfigVisitor& v) {
   // models
@@ -92,8 +90,8 @@ float EnvCloseDistance(const std::string& env_name) {
   return 7.0f;
 }
 
-DetectorOptions DefaultDetectorOptions(const std::string& env_name, bool paper_sizes,
-                                       const std::string& source, const std::string& target) {
+DetectorOptions DefaultDetectorOptions(const std::string& env_name, bool paper_sizes, const std::string& source,
+                                       const std::string& target) {
   DetectorOptions o;
   o.close_distance = EnvCloseDistance(env_name);
   if (paper_sizes) {

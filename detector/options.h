@@ -27,43 +27,43 @@ struct DetectorOptions {
   // ---- models: conditional Gaussians over the scaled change of the target ----------------
   std::vector<int> passive_hidden = {128, 128};  // paper: 256-256 .. 512x3 (see --paper-sizes)
   std::vector<int> active_hidden = {128, 128};
-  float lr = 3e-3f;             // paper 1e-4 (with far longer training)
-  int passive_steps = 4000;     // Adam steps of the passive model
-  int passive_hard_steps = 4000;  // passive steps after the active model's warm start
+  float lr = 3e-3f;                  // paper 1e-4 (with far longer training)
+  int passive_steps = 4000;          // Adam steps of the passive model
+  int passive_hard_steps = 4000;     // passive steps after the active model's warm start
   float passive_hard_lambda = 0.0f;  // up-weight of the passive model's own misses then
-  int active_steps = 10000;     // after the warm start from the passive model
+  int active_steps = 10000;          // after the warm start from the passive model
   int batch = 256;
-  float clip_norm = 10.0f;      // global gradient-norm clip
-  float min_std = 0.01f;        // the paper's minimum std, in scaled-change units
-  bool warm_start = true;       // the active model starts as the trained passive model
-  bool source_action = true;    // a non-action source also sees the primitive action
-  float delta_quantile = 0.99f; // change scale per feature: this quantile of non-zero |change|
+  float clip_norm = 10.0f;       // global gradient-norm clip
+  float min_std = 0.01f;         // the paper's minimum std, in scaled-change units
+  bool warm_start = true;        // the active model starts as the trained passive model
+  bool source_action = true;     // a non-action source also sees the primitive action
+  float delta_quantile = 0.99f;  // change scale per feature: this quantile of non-zero |change|
 
   // ---- data balancing (appendix B) ---------------------------------------------------------
-  float lambda = 100.0f;        // active up-weight of close transitions with passive error
+  float lambda = 100.0f;  // active up-weight of close transitions with passive error
   // L1 distance of positions (env units); 0: no proximity; < 0: the env's (EnvCloseDistance)
   float close_distance = -1.0f;
   // when true, a pair without positions (source Action) up-weights nothing: w needs "close"
   bool upweight_needs_proximity = true;
-  bool proximity_gate = true;   // h_ab also requires proximity (when the pair has positions)
+  bool proximity_gate = true;         // h_ab also requires proximity (when the pair has positions)
   int static_instances_per_step = 4;  // multi-instance targets: unchanged instances sampled
 
   // ---- the interaction test and scores (eqs. 7-9) -----------------------------------------
   float eps_act = 2.0f;
   float eps_pas = 0.0f;
-  float eps_si = 3.0f;          // paper: 3 to 5 (5 in its runs; our scales differ)
-  int min_interactions = 10;    // fewer detected interactions: Sc_I = 0 (too little evidence)
+  float eps_si = 3.0f;        // paper: 3 to 5 (5 in its runs; our scales differ)
+  int min_interactions = 10;  // fewer detected interactions: Sc_I = 0 (too little evidence)
   // counterfactual check: h also needs ll_act(s_a, s_b) - mean_k ll_act(s_a~k, s_b) > eps_cf,
   // with s_a~k the source of other transitions (0 draws turns the check off)
   int counterfactual_draws = 3;
-  float eps_cf = 2.0f;     // fewer detected interactions: Sc_I = 0 (no evidence)
+  float eps_cf = 2.0f;  // fewer detected interactions: Sc_I = 0 (no evidence)
 
   // ---- mask and goal set (eq. 10, section 3.4.1) --------------------------------------------
-  float eps_eta = 0.1f;          // the absolute rule's threshold (normalised units)
-  float eps_eta_relative = 0.4f; // the relative rule's fraction of the largest deviation
+  float eps_eta = 0.1f;           // the absolute rule's threshold (normalised units)
+  float eps_eta_relative = 0.4f;  // the relative rule's fraction of the largest deviation
   MaskRule mask_rule = MaskRule::kRelative;
-  float goal_dedup = 0.01f;     // L1 in normalised units below which two goals are one (README)
-  int n_disc = 10;              // fewer unique goals: a discrete goal space
+  float goal_dedup = 0.01f;         // L1 in normalised units below which two goals are one (README)
+  int n_disc = 10;                  // fewer unique goals: a discrete goal space
   float goal_min_fraction = 0.02f;  // discrete goals seen in fewer interactions are dropped
 
   uint64_t seed = 1;
@@ -84,7 +84,6 @@ float EnvCloseDistance(const std::string& env_name);
 // defaults for an env and pair: the proximity distance of the env (EnvCloseDistance) and, when
 // paper_sizes, the paper's network sizes for the named pairs
 DetectorOptions DefaultDetectorOptions(const std::string& env_name, bool paper_sizes = false,
-                                       const std::string& source = "",
-                                       const std::string& target = "");
+                                       const std::string& source = "", const std::string& target = "");
 
 }  // namespace coins::detector

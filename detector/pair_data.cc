@@ -11,13 +11,11 @@ int PairLayout::source_input_dim() const {
   return source_features + (source_action ? action_input_dim() : 0);
 }
 
-Result<PairLayout> FitPairLayout(const envs::EnvSpec& spec, const TransitionSet& data,
-                                 const std::string& source, const std::string& target,
-                                 const DetectorOptions& options) {
+Result<PairLayout> FitPairLayout(const envs::EnvSpec& spec, const TransitionSet& data, const std::string& source,
+                                 const std::string& target, const DetectorOptions& options) {
   if (data.size() == 0) return Errorf("no transitions to fit the {}->{} pair on", source, target);
   if (data.state_dim() != spec.state_dim()) {
-    return Errorf("transitions have state_dim {}, env '{}' has {}", data.state_dim(), spec.name,
-                  spec.state_dim());
+    return Errorf("transitions have state_dim {}, env '{}' has {}", data.state_dim(), spec.name, spec.state_dim());
   }
   if (source == target) return Errorf("source and target are both '{}'", source);
   PairLayout L;
@@ -141,8 +139,8 @@ bool EncodeSample(const PairLayout& L, const PairTransition& src, const PairTran
   return !L.has_proximity() || (dist <= L.close_distance && dist_next <= L.close_distance);
 }
 
-PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data,
-                        const DetectorOptions& options, bool all_instances, uint64_t seed) {
+PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data, const DetectorOptions& options,
+                        bool all_instances, uint64_t seed) {
   PairSamples out;
   const int64_t n = data.size();
   const int tfeat = L.target_features;
@@ -189,8 +187,8 @@ PairSamples EncodePairs(const PairLayout& L, const TransitionSet& data,
   for (int64_t j = 0; j < m; ++j) {
     const int64_t t = out.transition[j];
     const PairTransition tr{data.state(t), data.action(t), data.next_state(t)};
-    out.close[j] = EncodeSample(L, tr, tr, out.instance[j], out.passive_in.col(j).data(),
-                                out.active_in.col(j).data(), out.target.col(j).data())
+    out.close[j] = EncodeSample(L, tr, tr, out.instance[j], out.passive_in.col(j).data(), out.active_in.col(j).data(),
+                                out.target.col(j).data())
                        ? 1
                        : 0;
   }

@@ -37,20 +37,20 @@
 namespace coins::detector {
 
 struct PairLayout {
-  std::string source, target;   // factor names; source "Action" means the primitive action
+  std::string source, target;  // factor names; source "Action" means the primitive action
   bool source_is_action = false;
-  int source_factor = -1;       // index in the spec (-1 for the action)
+  int source_factor = -1;  // index in the spec (-1 for the action)
   int target_factor = -1;
   int source_offset = 0, source_features = 0;
   int target_offset = 0, target_features = 0, instances = 1;
   bool multi_instance = false;
-  bool source_action = false;   // the action is appended to a factor source
+  bool source_action = false;  // the action is appended to a factor source
   envs::ActionSpec action;
   std::vector<float> source_low, source_high, target_low, target_high;
   std::vector<std::string> target_feature_names;
   std::vector<std::pair<int, int>> positions;  // (source feature, target feature) pairs
-  std::vector<int> dims;        // modelled target features
-  std::vector<float> scale;     // per modelled feature: 1.5 * change quantile (env units)
+  std::vector<int> dims;                       // modelled target features
+  std::vector<float> scale;                    // per modelled feature: 1.5 * change quantile (env units)
   float close_distance = 0.0f;
 
   int action_input_dim() const { return action.discrete ? action.n : action.dim; }
@@ -68,14 +68,13 @@ struct PairLayout {
 };
 
 // errors on unknown factor names, a multi-instance source, or source == target
-Result<PairLayout> FitPairLayout(const envs::EnvSpec& spec, const TransitionSet& data,
-                                 const std::string& source, const std::string& target,
-                                 const DetectorOptions& options);
+Result<PairLayout> FitPairLayout(const envs::EnvSpec& spec, const TransitionSet& data, const std::string& source,
+                                 const std::string& target, const DetectorOptions& options);
 
 struct PairSamples {
-  Eigen::MatrixXf passive_in;   // passive_input_dim x M
-  Eigen::MatrixXf active_in;    // active_input_dim x M
-  Eigen::MatrixXf target;       // output_dim x M, scaled change in [-1, 1]
+  Eigen::MatrixXf passive_in;       // passive_input_dim x M
+  Eigen::MatrixXf active_in;        // active_input_dim x M
+  Eigen::MatrixXf target;           // output_dim x M, scaled change in [-1, 1]
   std::vector<int64_t> transition;  // M: the transition of each sample
   std::vector<int> instance;        // M: the instance of each sample
   std::vector<uint8_t> close;       // M: proximity (1 when the pair has none)
@@ -94,7 +93,7 @@ bool EncodeSample(const PairLayout& layout, const PairTransition& src, const Pai
 
 // Encodes data. Multi-instance targets: every changed instance of every transition plus
 // options.static_instances_per_step unchanged ones drawn with seed (all_instances: every one).
-PairSamples EncodePairs(const PairLayout& layout, const TransitionSet& data,
-                        const DetectorOptions& options, bool all_instances, uint64_t seed);
+PairSamples EncodePairs(const PairLayout& layout, const TransitionSet& data, const DetectorOptions& options,
+                        bool all_instances, uint64_t seed);
 
 }  // namespace coins::detector

@@ -15,8 +15,7 @@ void TransitionSet::Reserve(int64_t n) {
 }
 
 void TransitionSet::Append(std::span<const float> state, std::span<const float> action,
-                           std::span<const float> next_state, uint32_t interactions,
-                           bool episode_start) {
+                           std::span<const float> next_state, uint32_t interactions, bool episode_start) {
   assert(int(state.size()) == state_dim_ && int(next_state.size()) == state_dim_);
   assert(int(action.size()) == action_dim_);
   states_.insert(states_.end(), state.begin(), state.end());
@@ -36,8 +35,7 @@ TransitionSet TransitionSet::Slice(int64_t begin, int64_t end) const {
   return out;
 }
 
-int InteractionBit(const envs::EnvSpec& spec, const std::string& source,
-                   const std::string& target) {
+int InteractionBit(const envs::EnvSpec& spec, const std::string& source, const std::string& target) {
   for (size_t i = 0; i < spec.interactions.size(); ++i) {
     if (spec.interactions[i].source == source && spec.interactions[i].target == target) {
       return int(i);

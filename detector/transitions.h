@@ -31,18 +31,14 @@ class TransitionSet {
 
   void Reserve(int64_t n);
   // appends one transition; asserts the sizes
-  void Append(std::span<const float> state, std::span<const float> action,
-              std::span<const float> next_state, uint32_t interactions, bool episode_start);
+  void Append(std::span<const float> state, std::span<const float> action, std::span<const float> next_state,
+              uint32_t interactions, bool episode_start);
 
-  std::span<const float> state(int64_t t) const {
-    return {states_.data() + t * state_dim_, size_t(state_dim_)};
-  }
+  std::span<const float> state(int64_t t) const { return {states_.data() + t * state_dim_, size_t(state_dim_)}; }
   std::span<const float> next_state(int64_t t) const {
     return {next_states_.data() + t * state_dim_, size_t(state_dim_)};
   }
-  std::span<const float> action(int64_t t) const {
-    return {actions_.data() + t * action_dim_, size_t(action_dim_)};
-  }
+  std::span<const float> action(int64_t t) const { return {actions_.data() + t * action_dim_, size_t(action_dim_)}; }
   uint32_t interactions(int64_t t) const { return bits_[t]; }
   bool episode_start(int64_t t) const { return starts_[t] != 0; }
 
@@ -58,7 +54,6 @@ class TransitionSet {
 };
 
 // index of bit "source->target" in spec.interactions, or -1 when the env does not label it
-int InteractionBit(const envs::EnvSpec& spec, const std::string& source,
-                   const std::string& target);
+int InteractionBit(const envs::EnvSpec& spec, const std::string& source, const std::string& target);
 
 }  // namespace coins::detector

@@ -56,7 +56,8 @@ Status CheckFits(const policy::LevelSpec& s, const envs::EnvSpec& trained, const
   auto where = [](const envs::EnvSpec& e, int index) -> std::string {
     int off = 0;
     for (const auto& f : e.factors) {
-      if (index < off + f.size()) return fmt::format("{}.{}", f.name, f.feature_names[size_t((index - off) % f.features)]);
+      if (index < off + f.size())
+        return fmt::format("{}.{}", f.name, f.feature_names[size_t((index - off) % f.features)]);
       off += f.size();
     }
     return "outside the state";
@@ -134,10 +135,18 @@ class EvalRecorder {
 // the result as one JSON line (--json) or as text
 void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::string& env, int level,
                const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
-  nlohmann::json j = {{"run_dir", f.run_dir}, {"checkpoint", checkpoint},     {"env", env},
-                      {"level", level},       {"policy", spec.name},      {"episodes", r.returns.size()},
-                      {"return_mean", r.return_mean}, {"return_sd", r.return_sd}, {"returns", r.returns},
-                      {"goals", r.goals_ended}, {"success", r.success}, {"steps", r.steps},
+  nlohmann::json j = {{"run_dir", f.run_dir},
+                      {"checkpoint", checkpoint},
+                      {"env", env},
+                      {"level", level},
+                      {"policy", spec.name},
+                      {"episodes", r.returns.size()},
+                      {"return_mean", r.return_mean},
+                      {"return_sd", r.return_sd},
+                      {"returns", r.returns},
+                      {"goals", r.goals_ended},
+                      {"success", r.success},
+                      {"steps", r.steps},
                       {"explore", spec.is_task() ? f.explore : 0.0}};
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
@@ -147,8 +156,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
   }
   std::cout << fmt::format("{} on {} ({}):", spec.name, env, checkpoint) << "\n";
   if (spec.is_task())
-    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes (task epsilon {})", r.return_mean,
-                             r.return_sd, r.returns.size(), f.explore)
+    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes (task epsilon {})", r.return_mean, r.return_sd,
+                             r.returns.size(), f.explore)
               << "\n";
   std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r.success,
                            r.goals_reached, r.goals_ended, r.steps)
@@ -175,9 +184,10 @@ Status RunEval(const EvalFlags& f) {
   std::string names;
   const int level = FindLevel(core, f.skill, &names);
   if (level < 0)
-    return f.skill.empty() ? Errorf("{}: no task policy in {} (levels: {}); give --skill NAME", f.run_dir, *ckpt,
-                                    names.empty() ? "none" : names)
-                           : Errorf("--skill {}: not in {} (levels: {})", f.skill, *ckpt, names.empty() ? "none" : names);
+    return f.skill.empty()
+               ? Errorf("{}: no task policy in {} (levels: {}); give --skill NAME", f.run_dir, *ckpt,
+                        names.empty() ? "none" : names)
+               : Errorf("--skill {}: not in {} (levels: {})", f.skill, *ckpt, names.empty() ? "none" : names);
   for (int L = 1; L <= level; ++L)
     COINS_RETURN_IF_ERROR(CheckFits(core.trainer(L)->spec(), (*trained)->spec(), (*env)->spec()));
   auto models = core.Models(level);
@@ -204,7 +214,8 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--skill", f->skill, "evaluate this skill (e.g. Ball) with random goals instead of the task");
   cmd->add_option("--episodes", f->episodes, "episodes (task) or goals (skill)")->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", f->seed, "first episode's seed");
-  cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")->check(CLI::Range(int64_t(1), int64_t(1) << 30));
+  cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")
+      ->check(CLI::Range(int64_t(1), int64_t(1) << 30));
   cmd->add_option("--explore", f->explore, "the task level's epsilon (skills act greedily); 0: greedy")
       ->check(cli::Finite(0.0, 1.0));
   cmd->add_option("--epoch", f->epoch, "checkpoint epoch (default: the newest)")->check(CLI::NonNegativeNumber);

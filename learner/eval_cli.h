@@ -16,16 +16,16 @@ namespace coins {
 
 struct EvalFlags {
   std::string run_dir;
-  std::string env;           // empty: the run's env
-  std::string skill;         // empty: the task
+  std::string env;    // empty: the run's env
+  std::string skill;  // empty: the task
   int episodes = 20;
   uint64_t seed = 1;
   int64_t max_steps = 20000;
   double explore = LearnerOptions{}.eval_task_explore;  // the task level's epsilon
-  int64_t epoch = -1;        // -1: the newest checkpoint
-  std::string out;           // rollout JSON lines
+  int64_t epoch = -1;                                   // -1: the newest checkpoint
+  std::string out;                                      // rollout JSON lines
   std::string gif;
-  int gif_steps = 1500;      // frames (env steps) in the GIF
+  int gif_steps = 1500;  // frames (env steps) in the GIF
   bool json = false;
 };
 

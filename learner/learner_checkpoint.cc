@@ -74,7 +74,7 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
     j["published"].push_back({{"name", name}, {"version", w.version()}, {"checksum", w.checksum()}});
   j["eval"] = {{"env_steps", status_.eval_env_steps()}, {"return_mean", status_.eval_return_mean()},
                {"return_sd", status_.eval_return_sd()}, {"episodes", status_.eval_episodes()},
-               {"success", status_.eval_success()}, {"angle_accuracy", status_.eval_angle_accuracy()},
+               {"success", status_.eval_success()},     {"angle_accuracy", status_.eval_angle_accuracy()},
                {"hit_rate", status_.eval_hit_rate()}};
   COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/state.json", j.dump(1)));
   COINS_RETURN_IF_ERROR(ReplaceDirectory(tmp, dir));
@@ -114,7 +114,8 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
       auto blob = ReadFileBytes(dir + "/" + dj.at("file").get<std::string>());
       if (!blob.ok()) return blob.status();
       COINS_RETURN_IF_ERROR(det->LoadWeights(*blob));
-      detectors_[dj.at("target").get<std::string>()] = {*spec, std::make_unique<detector::PairDetector>(std::move(*det))};
+      detectors_[dj.at("target").get<std::string>()] = {*spec,
+                                                        std::make_unique<detector::PairDetector>(std::move(*det))};
     }
     counters_ = j.at("counters").get<std::map<std::string, uint64_t>>();
     generation_ = j.at("generation").get<uint64_t>() + 1;

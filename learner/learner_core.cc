@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "actors/envs/env.h"
 #include "actors/evaluate.h"
@@ -210,7 +210,8 @@ Result<bool> LearnerCore::TrainWork(SampleSource* source, uint64_t env_steps, Ou
   const int64_t job_updates = t->updates() - job_start_updates_;
   if (env_steps < command_.step_base()) return false;
   if (command_.steps_per_update() > 0) {
-    const int64_t allowed = int64_t(double(env_steps - command_.step_base()) / command_.steps_per_update()) + kPacingSlack;
+    const int64_t allowed =
+        int64_t(double(env_steps - command_.step_base()) / command_.steps_per_update()) + kPacingSlack;
     if (job_updates >= allowed) return false;
   }
   auto step = t->Update(source);
@@ -275,9 +276,10 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
   status_.eval_success(r->success);
   status_.eval_angle_accuracy(skill.require_interaction ? r->accuracy : 0.0);
   status_.eval_hit_rate(skill.require_interaction ? r->hit_rate : 0.0);
-  spdlog::info("eval of {} at {} env steps: return {:.2f} +- {:.2f}, success {:.3f}, hit rate {:.3f}, angle accuracy {:.3f}",
-               spec.name, env_steps, r->return_mean, r->return_sd, r->success, status_.eval_hit_rate(),
-               status_.eval_angle_accuracy());
+  spdlog::info(
+      "eval of {} at {} env steps: return {:.2f} +- {:.2f}, success {:.3f}, hit rate {:.3f}, angle accuracy {:.3f}",
+      spec.name, env_steps, r->return_mean, r->return_sd, r->success, status_.eval_hit_rate(),
+      status_.eval_angle_accuracy());
   return Status::Ok();
 }
 

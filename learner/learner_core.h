@@ -21,8 +21,8 @@
 #include "common/policy/level_spec.h"
 #include "detector/detector_spec.h"
 #include "idl/control.h"
-#include "idl/transition.h"
 #include "idl/status.h"
+#include "idl/transition.h"
 #include "idl/weights.h"
 #include "learner/learner_options.h"
 #include "learner/replay_client/sample_source.h"
@@ -90,13 +90,13 @@ class LearnerCore {
   uint64_t seed_;
   msg::ChainCommand command_;
   bool has_command_ = false;
-  std::vector<policy::LevelSpec> specs_;                      // index level - 1
-  std::map<int, std::unique_ptr<PolicyTrainer>> trainers_;    // by level
-  std::map<std::string, LinkDetector> detectors_;             // by target: newest of each
-  std::map<std::string, msg::PolicyWeights> published_;       // by name: newest
-  std::map<std::string, uint64_t> counters_;                  // by name: versions published
+  std::vector<policy::LevelSpec> specs_;                    // index level - 1
+  std::map<int, std::unique_ptr<PolicyTrainer>> trainers_;  // by level
+  std::map<std::string, LinkDetector> detectors_;           // by target: newest of each
+  std::map<std::string, msg::PolicyWeights> published_;     // by name: newest
+  std::map<std::string, uint64_t> counters_;                // by name: versions published
   uint64_t generation_ = 0;
-  int train_level_ = 0;                                       // level being trained (0: none)
+  int train_level_ = 0;  // level being trained (0: none)
   int64_t job_start_updates_ = 0;
   uint64_t detect_done_seq_ = 0;
   uint64_t next_eval_at_ = 0, next_retrain_at_ = 0;

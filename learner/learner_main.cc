@@ -46,8 +46,8 @@ Result<Topics> OpenTopics(dds::Node& node) {
   auto weights = node.MakeWriter<msg::PolicyWeightsPubSubType>(dds::kWeightsTopic, dds::LatchedWriterQos());
   auto scores = node.MakeWriter<msg::InteractionScoresPubSubType>(dds::kScoresTopic, dds::StatusWriterQos());
   auto status = node.MakeWriter<msg::LearnerStatusPubSubType>(dds::kLearnerStatusTopic, dds::StatusWriterQos());
-  for (const Status* s : {&commands.status(), &control.status(), &actors.status(), &weights.status(), &scores.status(),
-                          &status.status()})
+  for (const Status* s :
+       {&commands.status(), &control.status(), &actors.status(), &weights.status(), &scores.status(), &status.status()})
     if (!s->ok()) return *s;
   t.commands = *commands;
   t.control = *control;
@@ -117,8 +117,8 @@ void PublishOutputs(Topics& t, LearnerCore::Outputs& out) {
 
 class LearnerProcess {
  public:
-  LearnerProcess(const RunOptions& run, const LearnerOptions& options, Topics topics,
-                 std::unique_ptr<LearnerCore> core, SampleSource* source)
+  LearnerProcess(const RunOptions& run, const LearnerOptions& options, Topics topics, std::unique_ptr<LearnerCore> core,
+                 SampleSource* source)
       : run_(run), options_(options), t_(std::move(topics)), core_(std::move(core)), source_(source) {}
   int Run(dds::Heartbeat& heartbeat);
 
@@ -236,7 +236,8 @@ int LearnerMain(int argc, char** argv) {
   main.AddSection(ConfigSection::Of("run", run));
   main.AddSection(ConfigSection::Of("learner", options));
   main.AddSection(ConfigSection::Of("detector", options.detector));
-  main.app().add_option("--resume-epoch", resume_epoch, "start from this checkpoint epoch (default: the newest)")
+  main.app()
+      .add_option("--resume-epoch", resume_epoch, "start from this checkpoint epoch (default: the newest)")
       ->check(CLI::NonNegativeNumber);
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (main.name() == "coins-learner") main.name() = "learner";

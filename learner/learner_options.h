@@ -2,8 +2,8 @@
 // run time, so their settings come in three groups by what a level's actions are, never by
 // link: `primitive_*` for the first skill (primitive actions), `skill_*` for skills whose actions
 // are goals of the skill below, `task_*` for the task policy over the top skill. Detection
-// settings are `detect_*`; the detectors' own options are the `detector` section. Defaults follow shared/reference/coins-method.md unless the comment
-// says why not.
+// settings are `detect_*`; the detectors' own options are the `detector` section. Defaults follow
+// shared/reference/coins-method.md unless the comment says why not.
 #pragma once
 
 #include <cstdint>
@@ -17,22 +17,22 @@ namespace coins {
 
 // how one group of levels is trained and run
 struct LevelTrainOptions {
-  std::string algorithm = "dqn";      // dqn (discrete actions) | ddpg (continuous actions)
+  std::string algorithm = "dqn";  // dqn (discrete actions) | ddpg (continuous actions)
   std::vector<double> hidden = {128, 128};
   double lr = 7e-4;
   int64_t batch = 64;
   int64_t n_step = 2;
   double gamma = 0.99;
-  int64_t target_update = 1000;       // dqn: hard target copy every N updates
-  double tau = 0.005;                 // ddpg: Polyak factor
-  int64_t atoms = 51;                 // dqn: distributional when > 1
+  int64_t target_update = 1000;  // dqn: hard target copy every N updates
+  double tau = 0.005;            // ddpg: Polyak factor
+  int64_t atoms = 51;            // dqn: distributional when > 1
   double v_min = -30, v_max = 0;
   bool dueling = true;
-  double explore = 0.3;               // acting: dqn epsilon / ddpg noise std
-  std::string her = "future";         // hindsight: none | final | future
+  double explore = 0.3;        // acting: dqn epsilon / ddpg noise std
+  std::string her = "future";  // hindsight: none | final | future
   double her_ratio = 0.5;
   bool prioritized = false;
-  double priority_alpha = 0.2;        // only used when prioritized (replay.priority_exponent sets the shards')
+  double priority_alpha = 0.2;  // only used when prioritized (replay.priority_exponent sets the shards')
   double step_reward = -1, success_reward = 0, interaction_reward = -1;
   double goal_epsilon = 0.024;        // continuous goals: reached within this, in normalised units
   int64_t timeout = 30;               // env steps before a goal times out
@@ -66,7 +66,7 @@ struct LearnerOptions {
   int64_t eval_every_steps = 20000;
   int64_t eval_episodes = 20;
   int64_t eval_goals = 100;
-  int64_t eval_max_steps = 20000;     // env steps at most per evaluation episode
+  int64_t eval_max_steps = 20000;  // env steps at most per evaluation episode
   // the task level's epsilon in evaluations (skills are evaluated greedily): breaks the cycles
   // a greedy task policy can fall into in a deterministic env (actors/evaluate.h)
   double eval_task_explore = 0.05;

@@ -68,8 +68,10 @@ TEST(LocalRun, FindsActionToPaddleAndTrainsThePaddleSkill) {
   ASSERT_EQ(scores.size(), 3u);
   const msg::InteractionScore* paddle = nullptr;
   for (const auto& s : scores) {
-    if (s.target() == "Paddle") paddle = &s;
-    else EXPECT_FALSE(s.pass()) << s.target() << " Sc_I " << s.score();
+    if (s.target() == "Paddle")
+      paddle = &s;
+    else
+      EXPECT_FALSE(s.pass()) << s.target() << " Sc_I " << s.score();
   }
   ASSERT_NE(paddle, nullptr);
   EXPECT_TRUE(paddle->pass()) << paddle->score();

@@ -148,7 +148,8 @@ void ChainAdapter::CompleteEpoch() {
   }
   machine_.SetEpoch(pending_epoch_state_.epoch);
   checkpoint_note_.clear();
-  spdlog::info("epoch {} complete ({})", pending_epoch_state_.epoch, store_.EpochPath(pending_epoch_state_.epoch).string());
+  spdlog::info("epoch {} complete ({})", pending_epoch_state_.epoch,
+               store_.EpochPath(pending_epoch_state_.epoch).string());
 }
 
 void ChainAdapter::PublishStatus() {

@@ -55,10 +55,10 @@ class ChainAdapter {
   EpochCutter cutter_;
   GoalCounter goals_;
   uint64_t learner_reports_seen_ = 0;
-  std::optional<chain::ChainState> saved_;       // what chain.json holds
-  std::optional<chain::Command> published_;      // the newest command written
-  chain::ChainState pending_epoch_state_;        // the state at the cut of the pending epoch
-  std::string checkpoint_note_;                  // the last abandoned epoch, for ChainStatus
+  std::optional<chain::ChainState> saved_;   // what chain.json holds
+  std::optional<chain::Command> published_;  // the newest command written
+  chain::ChainState pending_epoch_state_;    // the state at the cut of the pending epoch
+  std::string checkpoint_note_;              // the last abandoned epoch, for ChainStatus
   std::chrono::steady_clock::time_point next_status_;
 };
 

@@ -20,7 +20,8 @@ class JsonIn {
     if (!j_.is_object()) Fail("", "expected an object");
   }
   void U64(const char* k, uint64_t& v) {
-    if (const json* x = Get(k, "a non-negative integer", [](const json& e) { return e.is_number_unsigned(); })) v = x->get<uint64_t>();
+    if (const json* x = Get(k, "a non-negative integer", [](const json& e) { return e.is_number_unsigned(); }))
+      v = x->get<uint64_t>();
   }
   void F64(const char* k, double& v) {
     if (const json* x = Get(k, "a number", [](const json& e) { return e.is_number() || e.is_null(); }))
@@ -42,8 +43,12 @@ class JsonIn {
     }
   }
   // a nested object or list, or nullptr (with the error recorded)
-  const json* Object(const char* k) { return Get(k, "an object", [](const json& e) { return e.is_object(); }); }
-  const json* List(const char* k) { return Get(k, "a list", [](const json& e) { return e.is_array(); }); }
+  const json* Object(const char* k) {
+    return Get(k, "an object", [](const json& e) { return e.is_object(); });
+  }
+  const json* List(const char* k) {
+    return Get(k, "a list", [](const json& e) { return e.is_array(); });
+  }
   std::string Where(const std::string& k) const { return where_.empty() ? k : where_ + "." + k; }
   bool ok() const { return status_->ok(); }
 
@@ -65,8 +70,13 @@ class JsonIn {
 };
 
 json ToJson(const LinkSpec& l) {
-  return {{"source", l.source}, {"target", l.target}, {"score", Num(l.score)}, {"mask", l.mask},
-          {"goal_kind", l.goal_kind}, {"goal_set", l.goal_set}, {"interaction_rate", Num(l.interaction_rate)}};
+  return {{"source", l.source},
+          {"target", l.target},
+          {"score", Num(l.score)},
+          {"mask", l.mask},
+          {"goal_kind", l.goal_kind},
+          {"goal_set", l.goal_set},
+          {"interaction_rate", Num(l.interaction_rate)}};
 }
 void FromJson(JsonIn in, LinkSpec& l) {
   in.Str("source", l.source), in.Str("target", l.target), in.F64("score", l.score), in.Floats("mask", l.mask);
@@ -74,9 +84,15 @@ void FromJson(JsonIn in, LinkSpec& l) {
 }
 
 json ToJson(const SuccessTracker& t) {
-  return {{"based", t.based}, {"base_started", t.base_started}, {"base_reached", t.base_reached},
-          {"windows", t.windows}, {"rate", Num(t.rate)}, {"best", Num(t.best)}, {"best_at", t.best_at},
-          {"goals", t.goals}, {"best_at_goals", t.best_at_goals}};
+  return {{"based", t.based},
+          {"base_started", t.base_started},
+          {"base_reached", t.base_reached},
+          {"windows", t.windows},
+          {"rate", Num(t.rate)},
+          {"best", Num(t.best)},
+          {"best_at", t.best_at},
+          {"goals", t.goals},
+          {"best_at_goals", t.best_at_goals}};
 }
 void FromJson(JsonIn in, SuccessTracker& t) {
   in.Bool("based", t.based), in.U64("base_started", t.base_started), in.U64("base_reached", t.base_reached);
@@ -85,8 +101,11 @@ void FromJson(JsonIn in, SuccessTracker& t) {
 }
 
 json ToJson(const Link& l) {
-  return {{"spec", ToJson(l.spec)}, {"accepted_at_steps", l.accepted_at_steps}, {"learned_at_steps", l.learned_at_steps},
-          {"learned_by", l.learned_by}, {"success", ToJson(l.success)}};
+  return {{"spec", ToJson(l.spec)},
+          {"accepted_at_steps", l.accepted_at_steps},
+          {"learned_at_steps", l.learned_at_steps},
+          {"learned_by", l.learned_by},
+          {"success", ToJson(l.success)}};
 }
 void FromJson(JsonIn in, Status* st, Link& l) {
   if (const json* s = in.Object("spec")) FromJson(JsonIn(*s, in.Where("spec"), st), l.spec);
@@ -96,10 +115,19 @@ void FromJson(JsonIn in, Status* st, Link& l) {
 }
 
 json ToJson(const Score& s) {
-  return {{"source", s.source}, {"target", s.target}, {"score", Num(s.score)}, {"mg_score", Num(s.mg_score)},
-          {"interactions", s.interactions}, {"transitions", s.transitions}, {"pass", s.pass},
-          {"eligible", s.eligible}, {"note", s.note}, {"mask", s.mask}, {"goal_kind", s.goal_kind},
-          {"goal_set", s.goal_set}, {"interaction_rate", Num(s.interaction_rate)},
+  return {{"source", s.source},
+          {"target", s.target},
+          {"score", Num(s.score)},
+          {"mg_score", Num(s.mg_score)},
+          {"interactions", s.interactions},
+          {"transitions", s.transitions},
+          {"pass", s.pass},
+          {"eligible", s.eligible},
+          {"note", s.note},
+          {"mask", s.mask},
+          {"goal_kind", s.goal_kind},
+          {"goal_set", s.goal_set},
+          {"interaction_rate", Num(s.interaction_rate)},
           {"train_seconds", Num(s.train_seconds)}};
 }
 void FromJson(JsonIn in, Score& s) {
@@ -116,15 +144,29 @@ json StateToJson(const ChainState& s) {
   json links = json::array(), scores = json::array();
   for (const Link& l : s.links) links.push_back(ToJson(l));
   for (const Score& x : s.last_scores) scores.push_back(ToJson(x));
-  return {{"phase", PhaseName(s.phase)}, {"seq", s.seq}, {"source", s.source}, {"links", links}, {"round", s.round},
-          {"source_start", s.source_start}, {"next_detect", s.next_detect}, {"phase_start", s.phase_start},
-          {"env_steps", s.env_steps}, {"last_scores", scores}, {"lost_score_reports", s.lost_score_reports},
-          {"ignored_scores", s.ignored_scores},
-          {"eval", {{"env_steps", s.eval.env_steps}, {"mean", Num(s.eval.mean)}, {"sd", Num(s.eval.sd)},
-                    {"episodes", s.eval.episodes}}},
-          {"task", {{"started", s.task.started}, {"evals", s.task.evals}, {"best", Num(s.task.best)},
-                    {"best_at", s.task.best_at}}},
-          {"epoch", s.epoch}, {"last_cut_epoch", s.last_cut_epoch}, {"note", s.note}};
+  return {
+      {"phase", PhaseName(s.phase)},
+      {"seq", s.seq},
+      {"source", s.source},
+      {"links", links},
+      {"round", s.round},
+      {"source_start", s.source_start},
+      {"next_detect", s.next_detect},
+      {"phase_start", s.phase_start},
+      {"env_steps", s.env_steps},
+      {"last_scores", scores},
+      {"lost_score_reports", s.lost_score_reports},
+      {"ignored_scores", s.ignored_scores},
+      {"eval",
+       {{"env_steps", s.eval.env_steps},
+        {"mean", Num(s.eval.mean)},
+        {"sd", Num(s.eval.sd)},
+        {"episodes", s.eval.episodes}}},
+      {"task",
+       {{"started", s.task.started}, {"evals", s.task.evals}, {"best", Num(s.task.best)}, {"best_at", s.task.best_at}}},
+      {"epoch", s.epoch},
+      {"last_cut_epoch", s.last_cut_epoch},
+      {"note", s.note}};
 }
 
 Result<ChainState> StateFromJson(const json& j) {

@@ -22,7 +22,8 @@ bool NeverATarget(const std::string& name) { return name == "Action" || name == 
 std::string ListScores(const std::vector<Score>& scores) {
   std::string out;
   for (const Score& s : scores)
-    out += fmt::format("{}{} {:.2f}{}", out.empty() ? "" : ", ", s.target, s.score, s.eligible ? "" : " (not eligible)");
+    out +=
+        fmt::format("{}{} {:.2f}{}", out.empty() ? "" : ", ", s.target, s.score, s.eligible ? "" : " (not eligible)");
   return out.empty() ? "no scores" : out;
 }
 
@@ -45,15 +46,15 @@ std::optional<Phase> ParsePhase(std::string_view name) {
   return std::nullopt;
 }
 
-ChainMachine::ChainMachine(envs::EnvSpec spec, OrchestratorOptions options)
-    : spec_(std::move(spec)), o_(options) {
+ChainMachine::ChainMachine(envs::EnvSpec spec, OrchestratorOptions options) : spec_(std::move(spec)), o_(options) {
   s_.next_detect = uint64_t(o_.detect_every_steps);
   s_.note = "collecting random-action data for source Action";
 }
 
 Result<ChainMachine> ChainMachine::Restore(envs::EnvSpec spec, OrchestratorOptions options, ChainState state) {
   auto known = [&](const std::string& f) { return f == "Action" || spec.factor_index(f) >= 0; };
-  if (!known(state.source)) return Errorf("chain state: source '{}' is not a factor of env {}", state.source, spec.name);
+  if (!known(state.source))
+    return Errorf("chain state: source '{}' is not a factor of env {}", state.source, spec.name);
   for (const Link& l : state.links)
     if (!known(l.spec.source) || !known(l.spec.target))
       return Errorf("chain state: link {}->{} names a factor env {} does not have", l.spec.source, l.spec.target,
@@ -70,7 +71,8 @@ std::vector<std::string> ChainMachine::Targets() const {
   std::vector<std::string> out;
   for (const auto& f : spec_.factors) {
     if (NeverATarget(f.name) || f.name == s_.source) continue;
-    bool controlled = std::any_of(s_.links.begin(), s_.links.end(), [&](const Link& l) { return l.spec.target == f.name; });
+    bool controlled =
+        std::any_of(s_.links.begin(), s_.links.end(), [&](const Link& l) { return l.spec.target == f.name; });
     if (!controlled) out.push_back(f.name);
   }
   return out;
@@ -96,9 +98,7 @@ Command ChainMachine::command() const {
   c.acting_level = levels;
   c.job = "idle";
   switch (s_.phase) {
-    case Phase::kCollecting:
-      c.step_base = s_.next_detect;
-      break;
+    case Phase::kCollecting: c.step_base = s_.next_detect; break;
     case Phase::kDetecting:
       c.job = "detect";
       c.targets = Targets();
@@ -185,7 +185,8 @@ bool ChainMachine::Decide(const ScoresReport& r) {
 
 bool ChainMachine::Accept(const Score& best) {
   Link l;
-  l.spec = LinkSpec{best.source, best.target, best.score, best.mask, best.goal_kind, best.goal_set, best.interaction_rate};
+  l.spec =
+      LinkSpec{best.source, best.target, best.score, best.mask, best.goal_kind, best.goal_set, best.interaction_rate};
   l.accepted_at_steps = s_.env_steps;
   s_.links.push_back(std::move(l));
   return Transition(Phase::kTrainingSkill,
@@ -210,8 +211,8 @@ bool ChainMachine::EndChain(const std::string& why) {
   s_.task = TaskTracker{};
   s_.task.started = true;
   s_.task.best_at = s_.env_steps;
-  return Transition(Phase::kTask,
-                    fmt::format("chain ended ({}); training the task over the {} skill", why, s_.links.back().spec.target));
+  return Transition(Phase::kTask, fmt::format("chain ended ({}); training the task over the {} skill", why,
+                                              s_.links.back().spec.target));
 }
 
 bool ChainMachine::OnSkillCounts(int level, uint64_t started, uint64_t reached) {
@@ -268,14 +269,13 @@ bool ChainMachine::CheckSkill() {
   s_.source = target;
   // rounds that cannot accept anything would only spend the detect budget
   if (!AnyCandidate())
-    return EndChain(fmt::format("{} skill learned ({}): {}; no target a skill could control remains", target,
-                                l.learned_by, why));
+    return EndChain(
+        fmt::format("{} skill learned ({}): {}; no target a skill could control remains", target, l.learned_by, why));
   s_.source_start = s_.env_steps;
   s_.next_detect = s_.env_steps + uint64_t(o_.detect_every_steps);
   s_.round = 0;
-  return Transition(Phase::kCollecting,
-                    fmt::format("{} skill learned ({}): {}; collecting with it for source {}", target, l.learned_by,
-                                why, target));
+  return Transition(Phase::kCollecting, fmt::format("{} skill learned ({}): {}; collecting with it for source {}",
+                                                    target, l.learned_by, why, target));
 }
 
 bool ChainMachine::OnLearner(const LearnerReport& r) {
@@ -310,9 +310,10 @@ bool ChainMachine::CheckTask() {
                                                 Steps(uint64_t(o_.task_max_steps)), t.evals ? t.best : 0.0));
   if (t.evals > 0 && in_phase >= uint64_t(o_.task_min_steps) &&
       s_.env_steps - t.best_at >= uint64_t(o_.task_n_complete_steps))
-    return Transition(Phase::kDone,
-                      fmt::format("done: the task converged (eval return {:.2f} has not risen by more than {} for {} steps)",
-                                  t.best, o_.task_tolerance, Steps(s_.env_steps - t.best_at)));
+    return Transition(
+        Phase::kDone,
+        fmt::format("done: the task converged (eval return {:.2f} has not risen by more than {} for {} steps)", t.best,
+                    o_.task_tolerance, Steps(s_.env_steps - t.best_at)));
   return false;
 }
 
@@ -359,9 +360,10 @@ std::string ChainMachine::Describe() const {
                          l.success.windows, Steps(in_phase), Steps(uint64_t(o_.skill_max_steps)));
     }
     case Phase::kTask:
-      return fmt::format("training the task over {}: eval return {:.2f} +- {:.2f} (best {:.2f}, {} evals), {} of {} steps",
-                         s_.links.back().spec.target, s_.eval.mean, s_.eval.sd, s_.task.best, s_.task.evals,
-                         Steps(in_phase), Steps(uint64_t(o_.task_max_steps)));
+      return fmt::format(
+          "training the task over {}: eval return {:.2f} +- {:.2f} (best {:.2f}, {} evals), {} of {} steps",
+          s_.links.back().spec.target, s_.eval.mean, s_.eval.sd, s_.task.best, s_.task.evals, Steps(in_phase),
+          Steps(uint64_t(o_.task_max_steps)));
     case Phase::kDone: return s_.note;
   }
   return s_.note;

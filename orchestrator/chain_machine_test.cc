@@ -148,9 +148,9 @@ TEST(ChainMachine, AcceptsTheArgmaxOfEligiblePassingScores) {
   EXPECT_EQ(cmd.links[0].score, 4.5);
   EXPECT_EQ(cmd.links[0].mask, (std::vector<float>{1.0f, 0.0f}));
   EXPECT_EQ(cmd.acting_level, 1);
-  EXPECT_EQ(cmd.step_base, 1000u + 100u);       // phase start + skill_learning_starts
+  EXPECT_EQ(cmd.step_base, 1000u + 100u);  // phase start + skill_learning_starts
   EXPECT_EQ(cmd.steps_per_update, 4.0);
-  EXPECT_EQ(cmd.step_limit, 1000u + 50'000u);   // phase start + skill budget
+  EXPECT_EQ(cmd.step_limit, 1000u + 50'000u);  // phase start + skill budget
   EXPECT_EQ(c.m.state().links[0].accepted_at_steps, 1000u);
   EXPECT_EQ(c.m.state().last_scores.size(), 4u);
 }
@@ -214,13 +214,13 @@ TEST(ChainMachine, SkillConvergesWhenSuccessStopsImprovingAfterTheMinimum) {
   Chain c;
   AcceptPaddle(c.m);  // windows of 10 goals; at least 40 goals; n_complete 20 goals
   uint64_t started = 0, got = 0;
-  c.m.OnSkillCounts(1, 0, 0);             // the base of the first window
-  Window(c.m, 1, 1200, 5, &started, &got);   // 0.5: best at 10 goals
-  Window(c.m, 1, 1400, 9, &started, &got);   // 0.9: best at 20 goals
-  Window(c.m, 1, 1600, 9, &started, &got);   // 0.9: no rise, 30 goals
+  c.m.OnSkillCounts(1, 0, 0);               // the base of the first window
+  Window(c.m, 1, 1200, 5, &started, &got);  // 0.5: best at 10 goals
+  Window(c.m, 1, 1400, 9, &started, &got);  // 0.9: best at 20 goals
+  Window(c.m, 1, 1600, 9, &started, &got);  // 0.9: no rise, 30 goals
   EXPECT_EQ(c.m.state().phase, Phase::kTrainingSkill);
-  EXPECT_FALSE(c.m.OnEnvSteps(2999));        // env steps alone never converge a skill
-  Window(c.m, 1, 3000, 9, &started, &got);   // 40 goals, 20 since the best
+  EXPECT_FALSE(c.m.OnEnvSteps(2999));       // env steps alone never converge a skill
+  Window(c.m, 1, 3000, 9, &started, &got);  // 40 goals, 20 since the best
   EXPECT_EQ(c.m.state().links[0].success.best_at, 1400u);
   EXPECT_EQ(c.m.state().links[0].success.best_at_goals, 20u);
   EXPECT_DOUBLE_EQ(c.m.state().links[0].success.best, 0.9);
@@ -230,8 +230,8 @@ TEST(ChainMachine, SkillConvergesWhenSuccessStopsImprovingAfterTheMinimum) {
   Command cmd = c.m.command();
   EXPECT_EQ(cmd.phase, "collecting");
   EXPECT_EQ(cmd.source, "Paddle");
-  EXPECT_EQ(cmd.acting_level, 1);             // the Paddle skill runs with random goals
-  EXPECT_EQ(cmd.step_base, 4000u);            // learned at 3000 + detect_every_steps
+  EXPECT_EQ(cmd.acting_level, 1);   // the Paddle skill runs with random goals
+  EXPECT_EQ(cmd.step_base, 4000u);  // learned at 3000 + detect_every_steps
   EXPECT_EQ(c.m.Targets(), (std::vector<std::string>{"Ball", "Block"}));
 }
 
@@ -242,7 +242,7 @@ TEST(ChainMachine, SmallRisesBelowTheToleranceDoNotResetConvergence) {
   c.m.OnSkillCounts(1, 0, 0);
   Window(c.m, 1, 1500, 9, &started, &got);  // 0.9 at 1500 (10 goals)
   c.m.OnEnvSteps(2500);
-  started += 1000;                           // a large window: 0.905, a rise below 0.01
+  started += 1000;  // a large window: 0.905, a rise below 0.01
   got += 905;
   EXPECT_TRUE(c.m.OnSkillCounts(1, started, got));
   EXPECT_EQ(c.m.state().links[0].success.best_at, 1500u);
@@ -264,9 +264,9 @@ TEST(ChainMachine, SuccessWindowsRebaseWhenCountsDrop) {
   EXPECT_FALSE(UpdateSuccess(t, 100, 50, 10, 10, 0.01));  // base
   EXPECT_TRUE(UpdateSuccess(t, 110, 58, 20, 10, 0.01));   // 8 of 10
   EXPECT_DOUBLE_EQ(t.rate, 0.8);
-  EXPECT_FALSE(UpdateSuccess(t, 5, 1, 30, 10, 0.01));     // an actor restarted: new base
-  EXPECT_FALSE(UpdateSuccess(t, 14, 1, 40, 10, 0.01));    // 9 goals: window still open
-  EXPECT_TRUE(UpdateSuccess(t, 15, 2, 50, 10, 0.01));     // 1 of 10
+  EXPECT_FALSE(UpdateSuccess(t, 5, 1, 30, 10, 0.01));   // an actor restarted: new base
+  EXPECT_FALSE(UpdateSuccess(t, 14, 1, 40, 10, 0.01));  // 9 goals: window still open
+  EXPECT_TRUE(UpdateSuccess(t, 15, 2, 50, 10, 0.01));   // 1 of 10
   EXPECT_DOUBLE_EQ(t.rate, 0.1);
   EXPECT_DOUBLE_EQ(t.best, 0.8);
   EXPECT_EQ(t.best_at, 20u);
@@ -308,13 +308,13 @@ TEST(ChainMachine, TaskTrainsOverTheLastSkillAndConvergesOnTheEvalReturn) {
   c.m.OnEnvSteps(7000);
   c.m.OnLearner(Eval(c.m, 7000, 10.0));
   c.m.OnEnvSteps(8000);
-  c.m.OnLearner(Eval(c.m, 8000, 20.0));   // best at 8000
+  c.m.OnLearner(Eval(c.m, 8000, 20.0));  // best at 8000
   c.m.OnEnvSteps(9000);
-  c.m.OnLearner(Eval(c.m, 9000, 20.5));   // within the tolerance of 1.0
+  c.m.OnLearner(Eval(c.m, 9000, 20.5));  // within the tolerance of 1.0
   EXPECT_EQ(c.m.state().task.best_at, 8000u);
   EXPECT_DOUBLE_EQ(c.m.state().eval.mean, 20.5);
   EXPECT_FALSE(c.m.OnEnvSteps(10'999));
-  EXPECT_TRUE(c.m.OnEnvSteps(11'000));    // 3000 steps without a rise, 5000 in phase
+  EXPECT_TRUE(c.m.OnEnvSteps(11'000));  // 3000 steps without a rise, 5000 in phase
   cmd = c.m.command();
   EXPECT_EQ(cmd.phase, "done");
   EXPECT_EQ(cmd.step_limit, 11'000u);
@@ -406,7 +406,7 @@ TEST(ChainMachine, ResumeFromThePersistedStateAtEveryPhaseGivesTheSameNextComman
   using Step = std::function<void(ChainMachine&)>;
   std::vector<Step> script = {
       [](ChainMachine& m) { m.OnEnvSteps(500); },
-      [](ChainMachine& m) { m.OnEnvSteps(1000); },  // detecting
+      [](ChainMachine& m) { m.OnEnvSteps(1000); },                                           // detecting
       [](ChainMachine& m) { m.OnScores(Answer(m, {MakeScore("Action", "Paddle", 2.0)})); },  // collecting
       [](ChainMachine& m) { m.OnEnvSteps(2000); },
       [](ChainMachine& m) { m.OnScores(Answer(m, {MakeScore("Action", "Paddle", 6.0)})); },  // training
@@ -417,7 +417,7 @@ TEST(ChainMachine, ResumeFromThePersistedStateAtEveryPhaseGivesTheSameNextComman
       [](ChainMachine& m) { m.OnSkillCounts(1, 30, 27); },
       [](ChainMachine& m) { m.OnEnvSteps(4500); },
       [](ChainMachine& m) { m.OnSkillCounts(1, 40, 36); },  // converged: collecting for Paddle
-      [](ChainMachine& m) { m.OnEnvSteps(5500); },  // detecting Paddle
+      [](ChainMachine& m) { m.OnEnvSteps(5500); },          // detecting Paddle
       [](ChainMachine& m) { m.OnScores(Answer(m, {MakeScore("Paddle", "Ball", 1.0)})); },
       [](ChainMachine& m) { m.OnEnvSteps(6500); },
       [](ChainMachine& m) { m.OnScores(Answer(m, {MakeScore("Paddle", "Ball", 1.0)})); },

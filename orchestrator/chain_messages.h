@@ -33,7 +33,7 @@ class GoalCounter {
 
  private:
   struct Counts {
-    std::vector<uint64_t> started, reached;          // newest report
+    std::vector<uint64_t> started, reached;                  // newest report
     std::vector<uint64_t> carried_started, carried_reached;  // from earlier incarnations
   };
   std::map<uint32_t, Counts> actors_;

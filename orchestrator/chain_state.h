@@ -18,9 +18,9 @@ std::optional<Phase> ParsePhase(std::string_view name);
 // an accepted link as the learner and the actors use it (idl LinkSpec)
 struct LinkSpec {
   std::string source, target;
-  double score = 0;                 // Sc_I when accepted
-  std::vector<float> mask;          // eta_b over the target's features
-  std::string goal_kind;            // discrete | continuous
+  double score = 0;         // Sc_I when accepted
+  std::vector<float> mask;  // eta_b over the target's features
+  std::string goal_kind;    // discrete | continuous
   std::vector<float> goal_set;
   double interaction_rate = 0;
   bool operator==(const LinkSpec&) const = default;
@@ -28,23 +28,23 @@ struct LinkSpec {
 
 // a goal-reaching rate measured in windows of goals from cumulative counts
 struct SuccessTracker {
-  bool based = false;               // a first count has been seen
-  uint64_t base_started = 0;        // counts at the start of the open window
+  bool based = false;         // a first count has been seen
+  uint64_t base_started = 0;  // counts at the start of the open window
   uint64_t base_reached = 0;
-  uint64_t windows = 0;             // windows closed
-  double rate = 0;                  // the newest closed window's rate
-  double best = 0;                  // the best rate (meaningful once windows > 0)
-  uint64_t best_at = 0;             // env steps when best last rose by more than the tolerance
-  uint64_t goals = 0;               // goals in the closed windows
-  uint64_t best_at_goals = 0;       // goals when best last rose by more than the tolerance
+  uint64_t windows = 0;        // windows closed
+  double rate = 0;             // the newest closed window's rate
+  double best = 0;             // the best rate (meaningful once windows > 0)
+  uint64_t best_at = 0;        // env steps when best last rose by more than the tolerance
+  uint64_t goals = 0;          // goals in the closed windows
+  uint64_t best_at_goals = 0;  // goals when best last rose by more than the tolerance
   bool operator==(const SuccessTracker&) const = default;
 };
 
 struct Link {
   LinkSpec spec;
   uint64_t accepted_at_steps = 0;
-  uint64_t learned_at_steps = 0;    // 0: not learned yet
-  std::string learned_by;           // "" | converged | budget
+  uint64_t learned_at_steps = 0;  // 0: not learned yet
+  std::string learned_by;         // "" | converged | budget
   SuccessTracker success;
   bool operator==(const Link&) const = default;
 };
@@ -82,7 +82,7 @@ struct LearnerReport {
 };
 
 struct Eval {
-  uint64_t env_steps = 0;           // env steps when the evaluation started (0: none yet)
+  uint64_t env_steps = 0;  // env steps when the evaluation started (0: none yet)
   double mean = 0, sd = 0;
   uint32_t episodes = 0;
   bool operator==(const Eval&) const = default;
@@ -90,18 +90,18 @@ struct Eval {
 
 // task-phase progress of the eval return
 struct TaskTracker {
-  bool started = false;             // the task phase was entered
-  uint64_t evals = 0;               // evaluations seen in the task phase
-  double best = 0;                  // meaningful once evals > 0
-  uint64_t best_at = 0;             // env steps of the eval that last raised best by > tolerance
+  bool started = false;  // the task phase was entered
+  uint64_t evals = 0;    // evaluations seen in the task phase
+  double best = 0;       // meaningful once evals > 0
+  uint64_t best_at = 0;  // env steps of the eval that last raised best by > tolerance
   bool operator==(const TaskTracker&) const = default;
 };
 
 // everything the machine needs to continue; persisted after every transition
 struct ChainState {
   Phase phase = Phase::kCollecting;
-  uint64_t seq = 1;                 // the command's seq; grows at every transition
-  std::string source = "Action";    // the current source factor
+  uint64_t seq = 1;               // the command's seq; grows at every transition
+  std::string source = "Action";  // the current source factor
   std::vector<Link> links;
   uint64_t round = 0;               // detect rounds of this source (the current one while detecting)
   uint64_t source_start = 0;        // env steps when collecting for this source began
@@ -113,9 +113,9 @@ struct ChainState {
   uint64_t ignored_scores = 0;      // stale or duplicate score messages ignored
   Eval eval;                        // the newest evaluation
   TaskTracker task;
-  uint64_t epoch = 0;               // newest complete checkpoint epoch
-  uint64_t last_cut_epoch = 0;      // newest epoch cut (complete or not); the next cut is above it
-  std::string note;                 // the last transition and why, one line
+  uint64_t epoch = 0;           // newest complete checkpoint epoch
+  uint64_t last_cut_epoch = 0;  // newest epoch cut (complete or not); the next cut is above it
+  std::string note;             // the last transition and why, one line
   bool operator==(const ChainState&) const = default;
 };
 

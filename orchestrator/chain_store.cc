@@ -34,11 +34,16 @@ Status WriteState(const fs::path& path, const std::string& text) {
 ChainStore::ChainStore(fs::path dir, ConfigValues fingerprint)
     : dir_(std::move(dir)), fingerprint_(std::move(fingerprint)), hash_(HashConfig(fingerprint_)) {}
 
-fs::path ChainStore::EpochPath(uint64_t epoch) const { return dir_ / ("chain-epoch-" + std::to_string(epoch) + ".json"); }
+fs::path ChainStore::EpochPath(uint64_t epoch) const {
+  return dir_ / ("chain-epoch-" + std::to_string(epoch) + ".json");
+}
 
 std::string ChainStore::Render(const ChainState& s) const {
-  json j = {{"format", "coins-chain"}, {"schema", kChainStoreSchema}, {"config_hash", hash_},
-            {"config", fingerprint_}, {"state", StateToJson(s)}};
+  json j = {{"format", "coins-chain"},
+            {"schema", kChainStoreSchema},
+            {"config_hash", hash_},
+            {"config", fingerprint_},
+            {"state", StateToJson(s)}};
   return j.dump(1) + "\n";
 }
 
@@ -68,7 +73,8 @@ Result<ChainState> ChainStore::LoadFile(const fs::path& path) const {
   text << in.rdbuf();
   const std::string keep = "; the file is left as it is";
   json j = json::parse(text.str(), nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return Errorf("chain state {} is corrupt (not a JSON object){}", path.string(), keep);
+  if (j.is_discarded() || !j.is_object())
+    return Errorf("chain state {} is corrupt (not a JSON object){}", path.string(), keep);
   if (StringField(j, "format") != "coins-chain")
     return Errorf("chain state {} is corrupt (format is not coins-chain){}", path.string(), keep);
   if (!j.contains("schema") || !j["schema"].is_number_integer() || j["schema"].get<int>() != kChainStoreSchema)

@@ -17,8 +17,8 @@ class ChildProcess {
  public:
   // starts argv[0] with the arguments; stdout and stderr go to log_path (truncated, or
   // appended to with append: a restarted child keeps its predecessor's log)
-  static Result<ChildProcess> Spawn(std::string name, const std::vector<std::string>& argv,
-                                    const std::string& log_path, bool append = false);
+  static Result<ChildProcess> Spawn(std::string name, const std::vector<std::string>& argv, const std::string& log_path,
+                                    bool append = false);
 
   const std::string& name() const { return name_; }
   pid_t pid() const { return pid_; }

@@ -26,7 +26,8 @@ namespace {
 // `coins bench NAME [ARGS...]` runs the coins-bench-NAME executable beside this one
 void AddBenchCommand(CLI::App& app, int* exit_code) {
   auto name = std::make_shared<std::string>();
-  CLI::App* bench = app.add_subcommand("bench", "Run a benchmark and print its figures (name value unit; --json for JSON).");
+  CLI::App* bench =
+      app.add_subcommand("bench", "Run a benchmark and print its figures (name value unit; --json for JSON).");
   bench->add_option("name", *name, "benchmark: transport, env, nn, ...")->required();
   bench->footer("Arguments after the name go to the benchmark, e.g. `coins bench transport --json`.");
   bench->prefix_command();

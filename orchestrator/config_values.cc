@@ -13,8 +13,12 @@ namespace {
 class Flattener final : public ConfigVisitor {
  public:
   Flattener(std::string section, ConfigValues& out) : section_(std::move(section)), out_(out) {}
-  void Int(std::string_view key, int64_t& v, int64_t, int64_t, std::string_view) override { Put(key, std::to_string(v)); }
-  void Float(std::string_view key, double& v, double, double, std::string_view) override { Put(key, fmt::format("{}", v)); }
+  void Int(std::string_view key, int64_t& v, int64_t, int64_t, std::string_view) override {
+    Put(key, std::to_string(v));
+  }
+  void Float(std::string_view key, double& v, double, double, std::string_view) override {
+    Put(key, fmt::format("{}", v));
+  }
   void Bool(std::string_view key, bool& v, std::string_view) override { Put(key, v ? "true" : "false"); }
   void String(std::string_view key, std::string& v, const std::vector<std::string>&, std::string_view) override {
     Put(key, v);
@@ -48,10 +52,18 @@ ConfigValues FlattenConfig(const std::vector<ConfigSection>& sections) {
 }
 
 bool IsOperationalKey(const std::string& key) {
-  static const std::vector<std::string> kKeys = {
-      "run.dir", "run.steps", "run.actors", "run.max_restarts", "orchestrator.checkpoint_period_s",
-      "orchestrator.checkpoint_timeout_s", "actor.steps", "actor.flush_timeout_s", "replay.snapshot_dir",
-      "replay.snapshot_period_s", "replay.snapshot_keep", "replay.prefer_new_config"};
+  static const std::vector<std::string> kKeys = {"run.dir",
+                                                 "run.steps",
+                                                 "run.actors",
+                                                 "run.max_restarts",
+                                                 "orchestrator.checkpoint_period_s",
+                                                 "orchestrator.checkpoint_timeout_s",
+                                                 "actor.steps",
+                                                 "actor.flush_timeout_s",
+                                                 "replay.snapshot_dir",
+                                                 "replay.snapshot_period_s",
+                                                 "replay.snapshot_keep",
+                                                 "replay.prefer_new_config"};
   if (key.rfind("dds.", 0) == 0 || EndsWith(key, ".status_period_s")) return true;
   return std::find(kKeys.begin(), kKeys.end(), key) != kKeys.end();
 }

@@ -22,7 +22,8 @@ TEST(ExampleConfig, ListsEveryKeyWithItsDefault) {
   ASSERT_TRUE(loader.LoadText(*text, "breakout.yaml").ok());
   std::set<std::string> listed;
   for (const auto& section : YAML::Load(*text))
-    for (const auto& key : section.second) listed.insert(section.first.as<std::string>() + "." + key.first.as<std::string>());
+    for (const auto& key : section.second)
+      listed.insert(section.first.as<std::string>() + "." + key.first.as<std::string>());
   const ConfigValues want = defaults.Values(), got = loaded.Values();
   for (const auto& [key, value] : want) {
     EXPECT_TRUE(listed.count(key)) << key << " (default " << value << ") is missing from " << COINS_EXAMPLE_CONFIG;

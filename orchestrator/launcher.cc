@@ -82,7 +82,8 @@ class Progress {
     const double elapsed = std::chrono::duration<double>(now - start_).count();
     if (!quiet_) std::cout << Line(v, sup, elapsed) << std::endl;
     const uint64_t steps = v.total_steps();
-    const double rate = elapsed > last_wall_ ? double(steps - std::min(steps, last_steps_)) / (elapsed - last_wall_) : 0;
+    const double rate =
+        elapsed > last_wall_ ? double(steps - std::min(steps, last_steps_)) / (elapsed - last_wall_) : 0;
     if (metrics_) metrics_->Append(MakeRow(v, elapsed, rate, sup.restarts()));
     last_steps_ = steps, last_wall_ = elapsed;
   }
@@ -102,8 +103,8 @@ class Progress {
 };
 
 struct RunOutcome {
-  std::string failure;     // a child that could not be kept running
-  bool chain_done = false; // ChainStatus.phase reached done
+  std::string failure;      // a child that could not be kept running
+  bool chain_done = false;  // ChainStatus.phase reached done
 };
 
 // watches children and status until the chain is done, the step budget is reached, a child
@@ -153,12 +154,14 @@ RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemCon
 // the chain is done: its phase change cuts an epoch, in which the learner checkpoints the final
 // policy (what `coins eval` loads); waits for it, at most the checkpoint timeout
 void WaitForFinalEpoch(const SystemConfig& c) {
-  const auto end = std::chrono::steady_clock::now() +
-                   std::chrono::duration<double>(c.orchestrator.checkpoint_timeout_s + 2.0);
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(c.orchestrator.checkpoint_timeout_s + 2.0);
   while (!FinalEpoch(c.run.dir) && std::chrono::steady_clock::now() < end && !StopRequested())
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  if (auto e = FinalEpoch(c.run.dir)) std::cout << "coins run: final checkpoint epoch " << *e << " complete\n";
-  else std::cout << "coins run: no checkpoint epoch of the finished chain completed; the newest checkpoint is used\n";
+  if (auto e = FinalEpoch(c.run.dir))
+    std::cout << "coins run: final checkpoint epoch " << *e << " complete\n";
+  else
+    std::cout << "coins run: no checkpoint epoch of the finished chain completed; the newest checkpoint is used\n";
 }
 
 // the summary (printed and summary.json), learning curves, and the final GIF of a finished chain
@@ -171,7 +174,8 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
   if (progress.metrics()) {
     auto plots = progress.metrics()->Plot();
     if (!plots.ok()) std::cout << "  " << plots.status().message() << "\n";
-    for (const auto& f : plots.ok() ? *plots : std::vector<std::string>{}) std::cout << "  learning curve: " << f << "\n";
+    for (const auto& f : plots.ok() ? *plots : std::vector<std::string>{})
+      std::cout << "  learning curve: " << f << "\n";
   }
   std::cout << "  metrics: " << c.run.dir << "/metrics.csv, metrics.jsonl\n";
   if (chain_done) std::cout << "  " << WriteFinalGif(SelfDirectory() + "/coins", c.run.dir) << "\n";
@@ -201,8 +205,7 @@ void StopRun(std::vector<ChildProcess>& children, const SystemConfig& c) {
       if (!member(p)) continue;
       auto left = duration_cast<milliseconds>(end - steady_clock::now());
       if (p.WaitFor(std::max(left, milliseconds(0)))) continue;
-      std::cerr << "coins run: " << p.name() << " did not stop within " << grace.count() / 1000.0
-                << " s; killing it\n";
+      std::cerr << "coins run: " << p.name() << " did not stop within " << grace.count() / 1000.0 << " s; killing it\n";
       p.Signal(SIGKILL);
       p.WaitFor(seconds(5));
     }
@@ -248,7 +251,8 @@ void PrintFinalCounts(const StatusView& v, int64_t actors) {
 
 void AddRunCommand(CLI::App& app, int* exit_code) {
   auto flags = std::make_shared<RunFlags>();
-  CLI::App* run = app.add_subcommand("run", "Start a whole run on this machine: replay shards, learner, orchestrator, actors.");
+  CLI::App* run =
+      app.add_subcommand("run", "Start a whole run on this machine: replay shards, learner, orchestrator, actors.");
   run->add_option("--config", flags->config, "YAML config file")->check(CLI::ExistingFile);
   run->add_option("--actors", flags->actors, "actor processes (run.actors)")->check(CLI::Range(1, 1024));
   run->add_option("--shards", flags->shards, "replay shard processes (run.shards)")->check(CLI::Range(1, 256));
@@ -307,9 +311,12 @@ int RunLocal(const RunFlags& flags) {
   if (outcome.chain_done) WaitForFinalEpoch(c);
   const std::string& failure = outcome.failure;
 
-  if (!failure.empty()) std::cerr << "coins run: " << failure << "; stopping the other processes\n";
-  else if (outcome.chain_done) std::cout << "coins run: the chain is done; stopping every process\n";
-  else if (StopRequested()) std::cout << "coins run: stopping (interrupted)\n";
+  if (!failure.empty())
+    std::cerr << "coins run: " << failure << "; stopping the other processes\n";
+  else if (outcome.chain_done)
+    std::cout << "coins run: the chain is done; stopping every process\n";
+  else if (StopRequested())
+    std::cout << "coins run: stopping (interrupted)\n";
   StopRun(children, c);
   // the final reports of the last processes may still be on their way
   auto reported = [&] { return (*collector)->Snapshot().actors.size() >= size_t(c.run.actors); };

@@ -16,14 +16,14 @@ namespace coins {
 
 struct RunFlags {
   std::string config;
-  int64_t actors = -1;       // -1: from the config
+  int64_t actors = -1;  // -1: from the config
   int64_t shards = -1;
   int64_t steps = -1;
   std::string env;
   std::string dir;
-  std::string resume;        // --resume RUN_DIR: continue that run from its newest complete epoch
+  std::string resume;  // --resume RUN_DIR: continue that run from its newest complete epoch
   std::vector<std::string> overrides;
-  bool quiet = false;        // no progress lines
+  bool quiet = false;  // no progress lines
 };
 
 // adds the `run` subcommand to the coins CLI; its exit code goes to *exit_code

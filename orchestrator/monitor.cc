@@ -42,9 +42,10 @@ std::string ChainTable(const StatusView& v) {
   out << fmt::format("\nchain: phase {}, source {}, round {}, env steps {}, epoch {}\n  {}\n", c.phase(), c.source(),
                      c.round(), c.env_steps(), c.epoch(), c.message());
   for (const auto& l : c.links())
-    out << fmt::format("  link {}->{}: Sc_I {:.2f}, {}, success {:.3f}, accepted at {}, learned at {}\n    mask {} goals {} {}\n",
-                       l.source(), l.target(), l.score(), l.state(), l.skill_success(), l.accepted_at_steps(),
-                       l.learned_at_steps(), Floats(l.mask()), l.goal_kind(), Floats(l.goal_set()));
+    out << fmt::format(
+        "  link {}->{}: Sc_I {:.2f}, {}, success {:.3f}, accepted at {}, learned at {}\n    mask {} goals {} {}\n",
+        l.source(), l.target(), l.score(), l.state(), l.skill_success(), l.accepted_at_steps(), l.learned_at_steps(),
+        Floats(l.mask()), l.goal_kind(), Floats(l.goal_set()));
   for (const auto& s : c.last_scores())
     out << fmt::format("  score {}->{}: Sc_I {:.2f}{}{}\n", s.source(), s.target(), s.score(),
                        s.eligible() ? "" : " (not eligible)", s.note().empty() ? "" : " " + s.note());
@@ -53,9 +54,9 @@ std::string ChainTable(const StatusView& v) {
                        c.eval_env_steps());
   if (v.learner) {
     const auto& l = v.learner->sample;
-    out << fmt::format("  learner: job {} ({}), {} updates ({:.0f}/s), lag median {:.1f} p99 {:.1f}, checkpoint epoch {}\n",
-                       l.job(), l.state(), l.updates(), l.updates_per_s(), l.lag_median(), l.lag_p99(),
-                       l.checkpoint_epoch());
+    out << fmt::format(
+        "  learner: job {} ({}), {} updates ({:.0f}/s), lag median {:.1f} p99 {:.1f}, checkpoint epoch {}\n", l.job(),
+        l.state(), l.updates(), l.updates_per_s(), l.lag_median(), l.lag_p99(), l.checkpoint_epoch());
   }
   return out.str();
 }
@@ -66,12 +67,11 @@ std::string Table(const StatusView& v) {
   for (const auto& [name, h] : v.heartbeats)
     out << fmt::format("{:<16} {:<13} {:>8} {:>10.1f} {:>5.1f}s{}\n", name, h.sample.role(), h.sample.pid(),
                        h.sample.uptime_s(), Age(h.received), Age(h.received) > 5 ? "  (silent)" : "");
-  out << fmt::format("\n{:<8} {:<18} {:>6} {:>12} {:>12} {:>10} {:>10}\n", "actor", "env", "shard", "steps",
-                     "steps/s", "episodes", "return");
+  out << fmt::format("\n{:<8} {:<18} {:>6} {:>12} {:>12} {:>10} {:>10}\n", "actor", "env", "shard", "steps", "steps/s",
+                     "episodes", "return");
   for (const auto& [id, a] : v.actors)
-    out << fmt::format("{:<8} {:<18} {:>6} {:>12} {:>12.0f} {:>10} {:>10.2f}\n", id, a.sample.env(),
-                       a.sample.shard(), a.sample.steps(), a.sample.steps_per_s(), a.sample.episodes(),
-                       a.sample.mean_episode_return());
+    out << fmt::format("{:<8} {:<18} {:>6} {:>12} {:>12.0f} {:>10} {:>10.2f}\n", id, a.sample.env(), a.sample.shard(),
+                       a.sample.steps(), a.sample.steps_per_s(), a.sample.episodes(), a.sample.mean_episode_return());
   out << fmt::format("\n{:<8} {:>12} {:>12} {:>7} {:>12} {:>6} {:>6} {:>8}\n", "shard", "size", "capacity", "fill",
                      "insert/s", "dups", "gaps", "rejected");
   for (const auto& [id, s] : v.shards) {
@@ -88,34 +88,57 @@ nlohmann::json Json(const StatusView& v) {
   nlohmann::json j;
   j["processes"] = nlohmann::json::array();
   for (const auto& [name, h] : v.heartbeats)
-    j["processes"].push_back({{"name", name}, {"role", h.sample.role()}, {"pid", h.sample.pid()},
-                              {"state", h.sample.state()}, {"seen_s_ago", Age(h.received)}});
+    j["processes"].push_back({{"name", name},
+                              {"role", h.sample.role()},
+                              {"pid", h.sample.pid()},
+                              {"state", h.sample.state()},
+                              {"seen_s_ago", Age(h.received)}});
   j["actors"] = nlohmann::json::array();
   for (const auto& [id, a] : v.actors)
-    j["actors"].push_back({{"actor_id", id}, {"env", a.sample.env()}, {"shard", a.sample.shard()},
-                           {"steps", a.sample.steps()}, {"steps_per_s", a.sample.steps_per_s()},
+    j["actors"].push_back({{"actor_id", id},
+                           {"env", a.sample.env()},
+                           {"shard", a.sample.shard()},
+                           {"steps", a.sample.steps()},
+                           {"steps_per_s", a.sample.steps_per_s()},
                            {"transitions_published", a.sample.transitions_published()}});
   j["shards"] = nlohmann::json::array();
   for (const auto& [id, s] : v.shards)
-    j["shards"].push_back({{"shard_id", id}, {"size", s.sample.size()}, {"capacity", s.sample.capacity()},
+    j["shards"].push_back({{"shard_id", id},
+                           {"size", s.sample.size()},
+                           {"capacity", s.sample.capacity()},
                            {"inserted_transitions", s.sample.inserted_transitions()},
-                           {"insert_rate", s.sample.insert_rate()}, {"rejected", s.sample.rejected()}});
+                           {"insert_rate", s.sample.insert_rate()},
+                           {"rejected", s.sample.rejected()}});
   if (v.chain) {
     const auto& c = v.chain->sample;
     nlohmann::json links = nlohmann::json::array();
     for (const auto& l : c.links())
-      links.push_back({{"source", l.source()}, {"target", l.target()}, {"score", l.score()}, {"state", l.state()},
-                       {"skill_success", l.skill_success()}, {"mask", l.mask()}, {"goal_kind", l.goal_kind()},
-                       {"goal_set", l.goal_set()}, {"accepted_at_steps", l.accepted_at_steps()},
+      links.push_back({{"source", l.source()},
+                       {"target", l.target()},
+                       {"score", l.score()},
+                       {"state", l.state()},
+                       {"skill_success", l.skill_success()},
+                       {"mask", l.mask()},
+                       {"goal_kind", l.goal_kind()},
+                       {"goal_set", l.goal_set()},
+                       {"accepted_at_steps", l.accepted_at_steps()},
                        {"learned_at_steps", l.learned_at_steps()}});
-    j["chain"] = {{"phase", c.phase()}, {"env_steps", c.env_steps()}, {"source", c.source()}, {"round", c.round()},
-                  {"epoch", c.epoch()}, {"message", c.message()}, {"links", links},
-                  {"eval_return_mean", c.eval_return_mean()}, {"eval_return_sd", c.eval_return_sd()},
+    j["chain"] = {{"phase", c.phase()},
+                  {"env_steps", c.env_steps()},
+                  {"source", c.source()},
+                  {"round", c.round()},
+                  {"epoch", c.epoch()},
+                  {"message", c.message()},
+                  {"links", links},
+                  {"eval_return_mean", c.eval_return_mean()},
+                  {"eval_return_sd", c.eval_return_sd()},
                   {"eval_env_steps", c.eval_env_steps()}};
   }
   if (v.learner)
-    j["learner"] = {{"job", v.learner->sample.job()}, {"state", v.learner->sample.state()},
-                    {"updates", v.learner->sample.updates()}, {"lag_median", v.learner->sample.lag_median()}};
+    j["learner"] = {{"job", v.learner->sample.job()},
+                    {"state", v.learner->sample.state()},
+                    {"updates", v.learner->sample.updates()},
+                    {"lag_median", v.learner->sample.lag_median()}};
   return j;
 }
 
@@ -164,7 +187,8 @@ void AddMonitorCommand(CLI::App& app, int* exit_code) {
   CLI::App* m = app.add_subcommand("monitor", "Show a live table of every coins process in the DDS domain.");
   m->add_option("--config", flags->config, "YAML config file (its dds section is used)")->check(CLI::ExistingFile);
   m->add_option("--domain", flags->domain, "DDS domain id (overrides the config)")->check(CLI::Range(0, 232));
-  m->add_option("--seconds", flags->seconds, "stop after this many seconds (0: until Ctrl-C)")->check(cli::Finite(0, 1e7));
+  m->add_option("--seconds", flags->seconds, "stop after this many seconds (0: until Ctrl-C)")
+      ->check(cli::Finite(0, 1e7));
   m->add_flag("--json", flags->json, "print one JSON object of the final view instead of tables");
   m->callback([flags, exit_code] { *exit_code = RunMonitor(*flags); });
 }

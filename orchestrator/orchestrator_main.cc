@@ -35,8 +35,9 @@ int OrchestratorMain(int argc, char** argv) {
   SystemConfig config;
   int64_t resume_epoch = -1;
   for (auto& section : config.Sections(false)) main.AddSection(section);
-  main.app().add_option("--resume-epoch", resume_epoch,
-                        "continue from chain-epoch-N.json (coins run --resume); default: chain.json")
+  main.app()
+      .add_option("--resume-epoch", resume_epoch,
+                  "continue from chain-epoch-N.json (coins run --resume); default: chain.json")
       ->check(CLI::NonNegativeNumber);
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (main.name() == "coins-orchestrator") main.name() = "orchestrator";

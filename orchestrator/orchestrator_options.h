@@ -72,7 +72,8 @@ inline void OrchestratorOptions::Visit(ConfigVisitor& v) {
   v.Int("skill_max_steps", skill_max_steps, 1, kMaxSteps, "skill: env step budget");
   v.Float("skill_steps_per_update", skill_steps_per_update, 1e-3, 1e6, "skill: env steps per learner update");
   v.Int("skill_learning_starts", skill_learning_starts, 0, kMaxSteps, "skill: free env steps before pacing");
-  v.Int("task_n_complete_steps", task_n_complete_steps, 1, kMaxSteps, "task: env steps without improvement to converge");
+  v.Int("task_n_complete_steps", task_n_complete_steps, 1, kMaxSteps,
+        "task: env steps without improvement to converge");
   v.Float("task_tolerance", task_tolerance, 0, 1e9, "task: improvement of the eval return that counts");
   v.Int("task_min_steps", task_min_steps, 0, kMaxSteps, "task: env steps before convergence may end it");
   v.Int("task_max_steps", task_max_steps, 1, kMaxSteps, "task: env step budget");

@@ -46,12 +46,15 @@ TEST(OrchestratorOptions, InvalidValuesAreRefusedNamingTheKey) {
            {"orchestrator: {success_tolerance: 2}", "orchestrator.success_tolerance"},
            {"orchestrator: {skill_steps_per_update: 0}", "orchestrator.skill_steps_per_update"},
            {"orchestrator: {eps_si: .nan}", "orchestrator.eps_si"},
-           {"orchestrator: {detect_every_steps: 300000}", "detect_every_steps (300000) must not exceed detect_budget_steps"},
+           {"orchestrator: {detect_every_steps: 300000}",
+            "detect_every_steps (300000) must not exceed detect_budget_steps"},
            {"orchestrator: {n_complete_goals: 0}", "orchestrator.n_complete_goals"},
-           {"orchestrator: {skill_learning_starts: 500000}", "skill_learning_starts (500000) must be below skill_max_steps"},
+           {"orchestrator: {skill_learning_starts: 500000}",
+            "skill_learning_starts (500000) must be below skill_max_steps"},
            {"orchestrator: {task_min_steps: 2000000}", "task_min_steps (2000000) must not exceed task_max_steps"},
            {"orchestrator: {task_learning_starts: 1000000}", "task_learning_starts"},
-           {"orchestrator: {checkpoint_timeout_s: 600}", "checkpoint_timeout_s (600) must not exceed checkpoint_period_s"},
+           {"orchestrator: {checkpoint_timeout_s: 600}",
+            "checkpoint_timeout_s (600) must not exceed checkpoint_period_s"},
            {"orchestrator: {n_complete: 5}", "unknown key 'orchestrator.n_complete'"},
        }) {
     std::string err = Load(c.yaml);
@@ -60,8 +63,8 @@ TEST(OrchestratorOptions, InvalidValuesAreRefusedNamingTheKey) {
 }
 
 TEST(ConfigValues, FingerprintLeavesOutOperationalKeys) {
-  ConfigValues all = {{"dds.domain", "3"},         {"run.dir", "runs/x"},       {"run.steps", "100"},
-                      {"run.actors", "2"},         {"run.env", "breakout"},     {"learner.status_period_s", "1"},
+  ConfigValues all = {{"dds.domain", "3"},          {"run.dir", "runs/x"},        {"run.steps", "100"},
+                      {"run.actors", "2"},          {"run.env", "breakout"},      {"learner.status_period_s", "1"},
                       {"orchestrator.eps_si", "3"}, {"replay.snapshot_dir", "x"}, {"run.shards", "2"}};
   ConfigValues fp = ChainFingerprint(all);
   EXPECT_EQ(fp, (ConfigValues{{"orchestrator.eps_si", "3"}, {"run.env", "breakout"}, {"run.shards", "2"}}));

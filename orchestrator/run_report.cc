@@ -72,9 +72,12 @@ size_t MaskedDims(const std::vector<float>& mask) {
 
 json DetectorJson(const DetectorCounts& d) {
   if (d.pair.empty()) return nullptr;
-  return {{"pair", d.pair},           {"states", d.states},
-          {"labelled", d.labelled},   {"false_positives", d.false_positives},
-          {"missed", d.missed},       {"fp_per_state", d.fp_per_state()},
+  return {{"pair", d.pair},
+          {"states", d.states},
+          {"labelled", d.labelled},
+          {"false_positives", d.false_positives},
+          {"missed", d.missed},
+          {"fp_per_state", d.fp_per_state()},
           {"miss_rate", d.miss_rate()}};
 }
 
@@ -153,16 +156,26 @@ void RunMetrics::Append(const MetricsRow& r) {
   csv_ << "\n";
   json links = json::array();
   for (size_t i = 0; i < r.links.size(); ++i)
-    links.push_back({{"level", i + 1}, {"link", r.links[i].name}, {"state", r.links[i].state},
-                     {"success", r.links[i].success}});
+    links.push_back(
+        {{"level", i + 1}, {"link", r.links[i].name}, {"state", r.links[i].state}, {"success", r.links[i].success}});
   json ev = eval ? json{{"env_steps", r.eval_env_steps}, {"mean", r.eval_mean}, {"sd", r.eval_sd}} : json(nullptr);
-  jsonl_ << json{{"wall_s", r.wall_s}, {"env_steps", r.env_steps}, {"phase", r.phase}, {"steps_per_s", r.steps_per_s},
-                 {"updates_per_s", r.updates_per_s}, {"lag_median", r.lag_median}, {"eval", ev}, {"epoch", r.epoch},
-                 {"restarts", r.restarts}, {"links", links}, {"detector", DetectorJson(r.detector)},
-                 {"greedy", r.greedy_env_steps ? json{{"env_steps", r.greedy_env_steps}, {"success", r.greedy_success},
+  jsonl_ << json{{"wall_s", r.wall_s},
+                 {"env_steps", r.env_steps},
+                 {"phase", r.phase},
+                 {"steps_per_s", r.steps_per_s},
+                 {"updates_per_s", r.updates_per_s},
+                 {"lag_median", r.lag_median},
+                 {"eval", ev},
+                 {"epoch", r.epoch},
+                 {"restarts", r.restarts},
+                 {"links", links},
+                 {"detector", DetectorJson(r.detector)},
+                 {"greedy", r.greedy_env_steps ? json{{"env_steps", r.greedy_env_steps},
+                                                      {"success", r.greedy_success},
                                                       {"hit_rate", r.greedy_hit_rate},
                                                       {"angle_accuracy", r.greedy_angle_accuracy}}
-                                               : json(nullptr)}}.dump()
+                                               : json(nullptr)}}
+                .dump()
          << "\n";
   if (eval && r.eval_env_steps > last_eval_) {
     eval_ << fmt::format("{},{:.4f},{:.4f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd);
@@ -180,12 +193,15 @@ void RunMetrics::Append(const MetricsRow& r) {
 Result<std::vector<std::string>> RunMetrics::Plot() {
   csv_.flush(), jsonl_.flush(), eval_.flush();
   std::vector<std::string> files;
-  std::string script = "set datafile separator ','\nset terminal pngcairo size 900,540\nset grid\n"
-                       "set xlabel 'env steps'\nset key bottom right\n";
+  std::string script =
+      "set datafile separator ','\nset terminal pngcairo size 900,540\nset grid\n"
+      "set xlabel 'env steps'\nset key bottom right\n";
   if (levels_ > 0) {
     const std::string out = (fs::path(dir_) / "skill_success.png").string();
-    script += fmt::format("set output '{}'\nset title 'Skill success (goal-reaching rate, windowed)'\n"
-                          "set ylabel 'success'\nset yrange [0:1.05]\nplot ", out);
+    script += fmt::format(
+        "set output '{}'\nset title 'Skill success (goal-reaching rate, windowed)'\n"
+        "set ylabel 'success'\nset yrange [0:1.05]\nplot ",
+        out);
     for (int i = 0; i < levels_; ++i)
       script += fmt::format("{}'{}' every ::1 using 2:{} with lines lw 2 title 'level {} {}'", i ? ", " : "",
                             (fs::path(dir_) / "metrics.csv").string(), 12 + i, i + 1, names_[size_t(i)]);
@@ -194,9 +210,10 @@ Result<std::vector<std::string>> RunMetrics::Plot() {
   }
   if (last_eval_ > 0) {
     const std::string out = (fs::path(dir_) / "eval_return.png").string();
-    script += fmt::format("set output '{}'\nset title 'Task: greedy eval return'\nset ylabel 'return'\n"
-                          "plot '{}' every ::1 using 1:2:3 with yerrorlines lw 2 title 'eval return (mean +- sd)'\n",
-                          out, (fs::path(dir_) / "eval.csv").string());
+    script += fmt::format(
+        "set output '{}'\nset title 'Task: greedy eval return'\nset ylabel 'return'\n"
+        "plot '{}' every ::1 using 1:2:3 with yerrorlines lw 2 title 'eval return (mean +- sd)'\n",
+        out, (fs::path(dir_) / "eval.csv").string());
     files.push_back(out);
   }
   if (files.empty()) return files;
@@ -204,9 +221,11 @@ Result<std::vector<std::string>> RunMetrics::Plot() {
   if (gnuplot.empty()) return Errorf("gnuplot not found (Debian package gnuplot-nox): no learning-curve PNGs");
   const std::string script_path = (fs::path(dir_) / "curves.gp").string();
   std::ofstream(script_path) << script;
-  auto r = RunBounded({gnuplot, script_path}, (fs::path(dir_) / "logs" / "gnuplot.log").string(), std::chrono::seconds(30));
+  auto r =
+      RunBounded({gnuplot, script_path}, (fs::path(dir_) / "logs" / "gnuplot.log").string(), std::chrono::seconds(30));
   if (!Succeeded(r))
-    return Errorf("gnuplot failed ({}); see {}/logs/gnuplot.log", r.ok() ? "exit status " + std::to_string(*r) : r.status().message(), dir_);
+    return Errorf("gnuplot failed ({}); see {}/logs/gnuplot.log",
+                  r.ok() ? "exit status " + std::to_string(*r) : r.status().message(), dir_);
   return files;
 }
 
@@ -220,14 +239,23 @@ json RunSummary(const StatusView& v, double wall_s, int64_t restarts) {
   j["message"] = c.message();
   j["epoch"] = c.epoch();
   for (const auto& l : c.links())
-    j["links"].push_back({{"source", l.source()}, {"target", l.target()}, {"score", l.score()}, {"mask", l.mask()},
-                          {"goal_kind", l.goal_kind()}, {"goal_set", l.goal_set()}, {"skill_success", l.skill_success()},
-                          {"state", l.state()}, {"accepted_at_steps", l.accepted_at_steps()},
+    j["links"].push_back({{"source", l.source()},
+                          {"target", l.target()},
+                          {"score", l.score()},
+                          {"mask", l.mask()},
+                          {"goal_kind", l.goal_kind()},
+                          {"goal_set", l.goal_set()},
+                          {"skill_success", l.skill_success()},
+                          {"state", l.state()},
+                          {"accepted_at_steps", l.accepted_at_steps()},
                           {"learned_at_steps", l.learned_at_steps()}});
   j["last_scores"] = json::array();
   for (const auto& s : c.last_scores())
-    j["last_scores"].push_back({{"source", s.source()}, {"target", s.target()}, {"score", s.score()},
-                                {"eligible", s.eligible()}, {"note", s.note()}});
+    j["last_scores"].push_back({{"source", s.source()},
+                                {"target", s.target()},
+                                {"score", s.score()},
+                                {"eligible", s.eligible()},
+                                {"note", s.note()}});
   if (c.eval_env_steps())
     j["eval"] = {{"env_steps", c.eval_env_steps()}, {"mean", c.eval_return_mean()}, {"sd", c.eval_return_sd()}};
   return j;
@@ -248,18 +276,21 @@ std::string FormatSummary(const json& s) {
                            ? "learned at " + Short(double(l["learned_at_steps"].get<uint64_t>()))
                            : std::string("not learned"),
                        l["skill_success"].get<double>());
-    out += fmt::format("    mask {}; goals {}\n", Mask(mask),
-                       Goals(l["goal_kind"].get<std::string>(), l["goal_set"].get<std::vector<float>>(), MaskedDims(mask)));
+    out += fmt::format(
+        "    mask {}; goals {}\n", Mask(mask),
+        Goals(l["goal_kind"].get<std::string>(), l["goal_set"].get<std::vector<float>>(), MaskedDims(mask)));
   }
   if (s.contains("detector"))
-    out += fmt::format("  detector {} against the env's labels: {:.3g} false positives per state, {:.4f} of {} "
-                       "interactions missed ({} states)\n",
-                       s["detector"]["pair"].get<std::string>(), s["detector"]["fp_per_state"].get<double>(),
-                       s["detector"]["miss_rate"].get<double>(), s["detector"]["labelled"].get<uint64_t>(),
-                       s["detector"]["states"].get<uint64_t>());
+    out += fmt::format(
+        "  detector {} against the env's labels: {:.3g} false positives per state, {:.4f} of {} "
+        "interactions missed ({} states)\n",
+        s["detector"]["pair"].get<std::string>(), s["detector"]["fp_per_state"].get<double>(),
+        s["detector"]["miss_rate"].get<double>(), s["detector"]["labelled"].get<uint64_t>(),
+        s["detector"]["states"].get<uint64_t>());
   if (s.contains("eval"))
-    out += fmt::format("  final eval return: {:.2f} +- {:.2f} (evaluated at {} env steps)\n", s["eval"]["mean"].get<double>(),
-                       s["eval"]["sd"].get<double>(), Short(double(s["eval"]["env_steps"].get<uint64_t>())));
+    out += fmt::format("  final eval return: {:.2f} +- {:.2f} (evaluated at {} env steps)\n",
+                       s["eval"]["mean"].get<double>(), s["eval"]["sd"].get<double>(),
+                       Short(double(s["eval"]["env_steps"].get<uint64_t>())));
   else
     out += "  final eval return: none reported\n";
   return out;
@@ -285,7 +316,8 @@ std::string WriteFinalGif(const std::string& coins_path, const std::string& run_
   const std::string log = (fs::path(run_dir) / "logs" / "eval.log").string();
   auto probe = RunBounded({coins_path, "eval", "--help"}, log, std::chrono::seconds(10));
   if (!Succeeded(probe))
-    return "final GIF skipped: this coins has no `eval` subcommand yet (hook: WriteFinalGif in orchestrator/run_report.cc)";
+    return "final GIF skipped: this coins has no `eval` subcommand yet (hook: WriteFinalGif in "
+           "orchestrator/run_report.cc)";
   const std::string gif = (fs::path(run_dir) / "final.gif").string();
   auto r = RunBounded({coins_path, "eval", run_dir, "--episodes", "1", "--gif", gif}, log, std::chrono::seconds(600));
   if (!Succeeded(r)) return fmt::format("final GIF not written: coins eval failed; see {}", log);

@@ -34,7 +34,7 @@ struct MetricsRow {
     std::string name, state;
     double success = 0;
   };
-  std::vector<Link> links;             // level i + 1 = links[i]
+  std::vector<Link> links;  // level i + 1 = links[i]
   DetectorCounts detector;
   // the learner's newest greedy evaluation of the level it trains (skills: goals reached, goals
   // ended by an interaction, and of those the reached ones; 0 before the first)
@@ -58,7 +58,7 @@ class RunMetrics {
   std::ofstream csv_, jsonl_, eval_;
   uint64_t last_eval_ = 0;
   int levels_ = 0;
-  std::vector<std::string> names_;     // the newest link name per level
+  std::vector<std::string> names_;  // the newest link name per level
 };
 
 // the detector counts as JSON (pair, states, labelled, false_positives, missed, fp_per_state,

@@ -29,7 +29,8 @@ std::vector<std::string> Lines(const fs::path& p) {
   return out;
 }
 
-msg::ChainLink Link(const std::string& s, const std::string& t, double score, double success, const std::string& state) {
+msg::ChainLink Link(const std::string& s, const std::string& t, double score, double success,
+                    const std::string& state) {
   msg::ChainLink l;
   l.source(s);
   l.target(t);
@@ -77,7 +78,8 @@ TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
   auto lines = Lines(dir / "metrics.csv");
   ASSERT_EQ(lines.size(), 21u);
   EXPECT_EQ(lines[0].substr(0, 60), "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,");
-  EXPECT_EQ(lines[20], "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,,,,,,,,,");
+  EXPECT_EQ(lines[20],
+            "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,,,,,,,,,");
   EXPECT_EQ(Lines(dir / "eval.csv").size(), 1u + 6u);  // header + evaluations at rows 15..20
   auto jsonl = Lines(dir / "metrics.jsonl");
   ASSERT_EQ(jsonl.size(), 20u);
@@ -110,8 +112,9 @@ msg::ActorStats Counting(uint64_t seq, const std::string& pair, uint64_t states,
 }
 
 TEST(RunReport, ProgressAndSummaryShowTheChain) {
-  StatusView v = View(123'456, {Link("Action", "Paddle", 6.2, 0.93, "learned"), Link("Paddle", "Ball", 4.1, 0.4, "training")},
-                      120'000, 12.3);
+  StatusView v =
+      View(123'456, {Link("Action", "Paddle", 6.2, 0.93, "learned"), Link("Paddle", "Ball", 4.1, 0.4, "training")},
+           120'000, 12.3);
   // two actors count the newest command's detector; one still reports an older pair
   v.actors[0] = {Counting(7, "Paddle->Ball", 60'000, 1'000, 3, 20), StatusView::Clock::now()};
   v.actors[1] = {Counting(7, "Paddle->Ball", 40'000, 600, 1, 12), StatusView::Clock::now()};
@@ -126,13 +129,15 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
   std::string text = FormatSummary(summary);
   EXPECT_NE(text.find("phase training-skill after 61.5 s, 123.5k env steps, 2 restarts"), std::string::npos) << text;
   EXPECT_NE(text.find("level 1 Action->Paddle: Sc_I 6.20, accepted at 10.0k, learned at 40.0k, skill success 0.930"),
-            std::string::npos) << text;
+            std::string::npos)
+      << text;
   EXPECT_NE(text.find("level 2 Paddle->Ball: Sc_I 4.10, accepted at 10.0k, not learned"), std::string::npos) << text;
   EXPECT_NE(text.find("mask [1 0 0]; goals continuous [-1] .. [1]"), std::string::npos) << text;
   EXPECT_NE(text.find("final eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
   EXPECT_NE(text.find("detector Paddle->Ball against the env's labels: 4e-05 false positives per state, 0.0200 of 1600 "
                       "interactions missed (100000 states)"),
-            std::string::npos) << text;
+            std::string::npos)
+      << text;
   v.learner->sample.eval_env_steps(118'000);
   v.learner->sample.eval_hit_rate(0.93);
   v.learner->sample.eval_angle_accuracy(0.61);

@@ -20,8 +20,10 @@ std::vector<std::string> Overrides(const RunFlags& f, const std::string& forced_
   if (f.shards >= 0) sets.push_back(fmt::format("run.shards={}", f.shards));
   if (f.steps >= 0) sets.push_back(fmt::format("run.steps={}", f.steps));
   if (!f.env.empty()) sets.push_back("run.env=" + f.env);
-  if (!forced_dir.empty()) sets.push_back("run.dir=" + forced_dir);
-  else if (!f.dir.empty()) sets.push_back("run.dir=" + f.dir);
+  if (!forced_dir.empty())
+    sets.push_back("run.dir=" + forced_dir);
+  else if (!f.dir.empty())
+    sets.push_back("run.dir=" + f.dir);
   return sets;
 }
 
@@ -41,7 +43,8 @@ Status Load(SystemConfig& c, const std::string& file, const std::vector<std::str
 }
 
 // the newest complete epoch of the run whose file loads with this config
-Result<int64_t> NewestEpoch(const fs::path& chain_dir, const ConfigValues& fingerprint, std::vector<std::string>* notes) {
+Result<int64_t> NewestEpoch(const fs::path& chain_dir, const ConfigValues& fingerprint,
+                            std::vector<std::string>* notes) {
   chain::ChainStore store(chain_dir, fingerprint);
   std::vector<uint64_t> epochs = chain::ChainStore::Epochs(chain_dir);
   for (auto it = epochs.rbegin(); it != epochs.rend(); ++it) {
@@ -94,8 +97,10 @@ Status ClearPreviousRun(const SystemConfig& c, RunPlan* plan) {
     removed += (removed.empty() ? "" : ", ") + p.filename().string() + "/";
   }
   if (!removed.empty())
-    plan->notes.push_back(fmt::format("coins run: new run in {}: removed the previous run's {} (continue a run "
-                                      "with --resume {})", c.run.dir, removed, c.run.dir));
+    plan->notes.push_back(
+        fmt::format("coins run: new run in {}: removed the previous run's {} (continue a run "
+                    "with --resume {})",
+                    c.run.dir, removed, c.run.dir));
   return Status::Ok();
 }
 

@@ -26,9 +26,9 @@
 namespace coins {
 
 struct RunPlan {
-  std::string effective;              // the effective config (YAML), written to RUN_DIR/config.yaml
-  int64_t resume_epoch = -1;          // >= 0: resuming this epoch
-  std::vector<std::string> notes;     // lines to print before the run starts
+  std::string effective;           // the effective config (YAML), written to RUN_DIR/config.yaml
+  int64_t resume_epoch = -1;       // >= 0: resuming this epoch
+  std::vector<std::string> notes;  // lines to print before the run starts
 };
 
 // fills c and plan, or returns the one-line reason the run cannot start

@@ -90,7 +90,9 @@ void StatusCollector::Loop() {
       view_.env_steps.Report(s.actor_id(), s.steps());
     });
     shards_.TakeAll([&](const msg::ReplayStats& s, const auto&) { view_.shards[s.shard_id()] = {s, now}; });
-    chain_.TakeAll([&](const msg::ChainStatus& s, const auto&) { view_.chain = StatusView::Entry<msg::ChainStatus>{s, now}; });
+    chain_.TakeAll([&](const msg::ChainStatus& s, const auto&) {
+      view_.chain = StatusView::Entry<msg::ChainStatus>{s, now};
+    });
     learner_.TakeAll([&](const msg::LearnerStatus& s, const auto&) {
       view_.learner = StatusView::Entry<msg::LearnerStatus>{s, now};
       view_.learner_reports++;

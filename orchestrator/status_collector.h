@@ -23,7 +23,7 @@ namespace coins {
 // the acting link's detector against the simulator's labels, summed over the actors that count
 // it (each actor's counts start at its own start: a restarted actor's earlier ones are gone)
 struct DetectorCounts {
-  std::string pair;               // "Paddle->Ball"; "" when no actor counts one
+  std::string pair;  // "Paddle->Ball"; "" when no actor counts one
   uint64_t states = 0, labelled = 0, false_positives = 0, missed = 0;
   double fp_per_state() const { return states ? double(false_positives) / double(states) : 0.0; }
   double miss_rate() const { return labelled ? double(missed) / double(labelled) : 0.0; }
@@ -37,13 +37,13 @@ struct StatusView {
     Clock::time_point received;
   };
   std::map<std::string, Entry<msg::ProcessHeartbeat>> heartbeats;  // by process name
-  std::map<uint32_t, Entry<msg::ActorStats>> actors;                // by actor id
-  EnvStepCount env_steps;                                            // over actor restarts
-  std::map<uint32_t, Entry<msg::ReplayStats>> shards;               // by shard id
+  std::map<uint32_t, Entry<msg::ActorStats>> actors;               // by actor id
+  EnvStepCount env_steps;                                          // over actor restarts
+  std::map<uint32_t, Entry<msg::ReplayStats>> shards;              // by shard id
   std::optional<Entry<msg::ChainStatus>> chain;
   std::optional<Entry<msg::LearnerStatus>> learner;
-  uint64_t learner_reports = 0;                                     // LearnerStatus samples so far
-  std::optional<Entry<msg::InteractionScores>> scores;              // the newest
+  uint64_t learner_reports = 0;                         // LearnerStatus samples so far
+  std::optional<Entry<msg::InteractionScores>> scores;  // the newest
 
   // env steps of the run: the actors' reports over their restarts (the shards' stored counts
   // only before any actor reported)

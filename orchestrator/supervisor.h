@@ -18,9 +18,9 @@
 namespace coins {
 
 struct ChildSpec {
-  std::string name;                       // "replay-0", "learner", "actor-1"
-  std::vector<std::string> argv;          // argv[0] is the executable
-  std::vector<std::string> first_start;   // arguments of the first start only
+  std::string name;                      // "replay-0", "learner", "actor-1"
+  std::vector<std::string> argv;         // argv[0] is the executable
+  std::vector<std::string> first_start;  // arguments of the first start only
   bool actor = false;
 };
 
@@ -50,8 +50,8 @@ class Supervisor {
   struct Slot {
     ChildSpec spec;
     int64_t restarts = 0;
-    bool waiting = false;                 // a restart is due at restart_at
-    bool finished = false;                // ended for good (success or failure)
+    bool waiting = false;   // a restart is due at restart_at
+    bool finished = false;  // ended for good (success or failure)
     Clock::time_point restart_at;
   };
   Status Spawn(size_t i, bool first);
@@ -60,7 +60,7 @@ class Supervisor {
   std::string log_dir_;
   int64_t max_restarts_;
   std::vector<Slot> slots_;
-  std::vector<ChildProcess> children_;    // children_[i] runs slots_[i]
+  std::vector<ChildProcess> children_;  // children_[i] runs slots_[i]
   bool failed_ = false;
 };
 

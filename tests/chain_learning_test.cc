@@ -69,7 +69,9 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
       (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   coins.push_back(std::move(*child));
-  auto log = [&] { return ReadText(dir / "run.log") + "\n--- orchestrator\n" + ReadText(run / "logs" / "orchestrator.log"); };
+  auto log = [&] {
+    return ReadText(dir / "run.log") + "\n--- orchestrator\n" + ReadText(run / "logs" / "orchestrator.log");
+  };
 
   // Action->Paddle accepted by the orchestrator from the learner's scores, then trained from replay
   ASSERT_TRUE(WaitUntil([&] { return ChainState(run).value("phase", "") == "training-skill"; }, 120s)) << log();
@@ -91,12 +93,15 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
   ASSERT_TRUE(expected.has_value());
   weights->TakeAll([](const msg::PolicyWeights&, const auto&) {});  // what the killed learner sent
   std::optional<uint32_t> first_after;
-  ASSERT_TRUE(WaitUntil([&] {
-    weights->TakeAll([&](const msg::PolicyWeights& w, const auto&) {
-      if (!first_after && w.name() == "skill/Paddle") first_after = w.checksum();
-    });
-    return first_after.has_value();
-  }, 60s)) << log();
+  ASSERT_TRUE(WaitUntil(
+      [&] {
+        weights->TakeAll([&](const msg::PolicyWeights& w, const auto&) {
+          if (!first_after && w.name() == "skill/Paddle") first_after = w.checksum();
+        });
+        return first_after.has_value();
+      },
+      60s))
+      << log();
   EXPECT_EQ(*first_after, *expected) << "the restarted learner's first paddle weights differ from its checkpoint";
   EXPECT_NE(ReadText(dir / "run.log").find("learner (pid " + std::to_string(learner) + ") was killed by signal 9"),
             std::string::npos);

@@ -52,14 +52,16 @@ struct FakeLearner {
   // takes commands and controls, publishes the status; every 100 ms until pred() or timeout
   template <typename Pred>
   bool Until(Pred pred, seconds timeout) {
-    return WaitUntil([&] {
-      commands.TakeAll([&](const msg::ChainCommand& c, const auto&) { newest = c; });
-      control.TakeAll([&](const msg::Control& c, const auto&) { controls.push_back(c); });
-      report.command_seq(newest.seq());
-      report.job(newest.job());
-      status.Write(report);
-      return pred();
-    }, timeout);
+    return WaitUntil(
+        [&] {
+          commands.TakeAll([&](const msg::ChainCommand& c, const auto&) { newest = c; });
+          control.TakeAll([&](const msg::Control& c, const auto&) { controls.push_back(c); });
+          report.command_seq(newest.seq());
+          report.job(newest.job());
+          status.Write(report);
+          return pred();
+        },
+        timeout);
   }
 };
 
@@ -68,14 +70,14 @@ struct Cluster {
   int domain;
   std::vector<ChildProcess> procs;  // shard, actor, orchestrator
 
-  std::vector<std::string> Flags() {
-    return {"--config", (dir / "config.yaml").string(), "--quiet-config"};
-  }
+  std::vector<std::string> Flags() { return {"--config", (dir / "config.yaml").string(), "--quiet-config"}; }
   void WriteConfig() {
-    std::ofstream(dir / "config.yaml") << "dds: {domain: " << domain << "}\n"
+    std::ofstream(dir / "config.yaml")
+        << "dds: {domain: " << domain << "}\n"
         << "run: {env: breakout, actors: 1, shards: 1, steps: 0, dir: " << (dir / "run").string() << "}\n"
         << "actor: {steps: 3000, status_period_s: 0.2, batch_rows: 64}\n"
-        << "replay: {capacity_mb: 64, status_period_s: 0.2, snapshot_dir: " << (dir / "run" / "replay").string() << "}\n"
+        << "replay: {capacity_mb: 64, status_period_s: 0.2, snapshot_dir: " << (dir / "run" / "replay").string()
+        << "}\n"
         << "orchestrator: {detect_every_steps: 2000, checkpoint_period_s: 3600, checkpoint_timeout_s: 60}\n";
   }
   ChildProcess Start(const std::string& binary, const std::string& name, std::vector<std::string> extra) {
@@ -134,7 +136,8 @@ TEST(ChainProtocol, DetectAcceptCheckpointAndRestartOverRealProcesses) {
   // held nothing yet when the command came writes no file)
   std::ifstream shard_log(c.dir / "replay-0.log");
   std::string shard_text((std::istreambuf_iterator<char>(shard_log)), std::istreambuf_iterator<char>());
-  EXPECT_NE(shard_text.find("(command " + std::to_string(CheckpointCommandId(1)) + ")"), std::string::npos) << shard_text;
+  EXPECT_NE(shard_text.find("(command " + std::to_string(CheckpointCommandId(1)) + ")"), std::string::npos)
+      << shard_text;
   const fs::path snapshot = c.dir / "run" / "replay" / "shard-0-00000000.snap";
   if (fs::exists(snapshot)) {
     auto inspect = RunCommand(Bin("coins") + " replay inspect --json " + snapshot.string());

@@ -36,9 +36,12 @@ TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpen
   auto dir = TempDir("chain-restart");
   const fs::path run = dir / "run";
   std::vector<ChildProcess> coins;
-  auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") +
-                                   " run --steps 0 --actors 1 --shards 1 --set run.max_restarts=1" +
-                                   Flags(run, TestDomain(6))}, (dir / "run.log").string());
+  auto child =
+      ChildProcess::Spawn("coins-run",
+                          {"/bin/sh", "-c",
+                           "exec " + Bin("coins") + " run --steps 0 --actors 1 --shards 1 --set run.max_restarts=1" +
+                               Flags(run, TestDomain(6))},
+                          (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   coins.push_back(std::move(*child));
   // the chain leaves collecting at the first detect point (10k random steps)
@@ -55,11 +58,15 @@ TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpen
       << ReadText(dir / "run.log");
   // the restarted orchestrator continues the persisted chain: the same command seq, then onwards
   const std::string resumed = "(seq " + std::to_string(at_kill["seq"].get<uint64_t>()) + ", epoch";
-  ASSERT_TRUE(WaitUntil([&] {
-    const std::string log = ReadText(run / "logs" / "orchestrator.log");
-    const size_t at = log.find("continuing the chain from");
-    return at != std::string::npos && log.find(resumed, at) != std::string::npos;
-  }, std::chrono::seconds(20))) << resumed << "\n" << ReadText(run / "logs" / "orchestrator.log");
+  ASSERT_TRUE(WaitUntil(
+      [&] {
+        const std::string log = ReadText(run / "logs" / "orchestrator.log");
+        const size_t at = log.find("continuing the chain from");
+        return at != std::string::npos && log.find(resumed, at) != std::string::npos;
+      },
+      std::chrono::seconds(20)))
+      << resumed << "\n"
+      << ReadText(run / "logs" / "orchestrator.log");
   std::this_thread::sleep_for(std::chrono::seconds(1));
   EXPECT_GE(ChainState(run)["seq"].get<uint64_t>(), at_kill["seq"].get<uint64_t>());
   EXPECT_GE(ChainState(run)["env_steps"].get<uint64_t>(), at_kill["env_steps"].get<uint64_t>());
@@ -71,11 +78,15 @@ TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpen
   ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40))) << ReadText(dir / "run.log");
   const std::string out = ReadText(dir / "run.log");
   EXPECT_EQ(WEXITSTATUS(coins[0].status()), 1) << out;
-  EXPECT_NE(out.find("orchestrator (pid " + std::to_string(first) + ") was killed by signal 9 (Killed); restarting (1/1)"),
-            std::string::npos) << out;
-  EXPECT_NE(out.find("orchestrator (pid " + std::to_string(second) + ") was killed by signal 9 (Killed); restarts "
+  EXPECT_NE(
+      out.find("orchestrator (pid " + std::to_string(first) + ") was killed by signal 9 (Killed); restarting (1/1)"),
+      std::string::npos)
+      << out;
+  EXPECT_NE(out.find("orchestrator (pid " + std::to_string(second) +
+                     ") was killed by signal 9 (Killed); restarts "
                      "exhausted (1/1)"),
-            std::string::npos) << out;
+            std::string::npos)
+      << out;
   EXPECT_NE(out.find("| restarts 1"), std::string::npos) << out;
   EXPECT_EQ(PidOf("coins-actor", run), -1) << "an actor outlived the run";
 }
@@ -84,8 +95,9 @@ TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpen
 fs::path FinishedRun(const std::string& name, int domain) {
   auto dir = TempDir(name);
   // the chain stays in collecting (detect point out of reach), so the paced actor runs its steps
-  auto r = RunCommand(Bin("coins") + " run --steps 20000 --actors 1 --shards 1 --quiet" + Flags(dir / "run", domain) +
-                      " --set orchestrator.detect_every_steps=1000000000 --set orchestrator.detect_budget_steps=1000000000");
+  auto r =
+      RunCommand(Bin("coins") + " run --steps 20000 --actors 1 --shards 1 --quiet" + Flags(dir / "run", domain) +
+                 " --set orchestrator.detect_every_steps=1000000000 --set orchestrator.detect_budget_steps=1000000000");
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(dir / "run" / "chain" / "chain.json")) << r.output;
   return dir / "run";
@@ -93,12 +105,14 @@ fs::path FinishedRun(const std::string& name, int domain) {
 
 TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
   const fs::path run = FinishedRun("chain-resume-refused", TestDomain(7));
-  for (uint64_t e : chain::ChainStore::Epochs(run / "chain")) fs::remove(run / "chain" / ("chain-epoch-" + std::to_string(e) + ".json"));
+  for (uint64_t e : chain::ChainStore::Epochs(run / "chain"))
+    fs::remove(run / "chain" / ("chain-epoch-" + std::to_string(e) + ".json"));
   auto one_line = [](const CommandResult& r) { return std::count(r.output.begin(), r.output.end(), '\n') == 1; };
   auto r = RunCommand(Bin("coins") + " run --resume " + run.string());
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_TRUE(one_line(r)) << r.output;
-  EXPECT_NE(r.output.find("no complete checkpoint epoch in " + (run / "chain").string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no complete checkpoint epoch in " + (run / "chain").string()), std::string::npos)
+      << r.output;
 
   MakeEpoch(run, 1);
   r = RunCommand(Bin("coins") + " run --resume " + run.string() + " --set orchestrator.eps_si=5");
@@ -106,11 +120,14 @@ TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
   EXPECT_TRUE(one_line(r)) << r.output;
   EXPECT_NE(r.output.find("orchestrator.eps_si is 5 here, 3 in " + (run / "config.yaml").string()), std::string::npos)
       << r.output;
-  std::ofstream(run.parent_path() / "other.yaml") << "orchestrator:\n  detect_every_steps: 5000\n  detect_budget_steps: 1000000000\n";
-  r = RunCommand(Bin("coins") + " run --resume " + run.string() + " --config " + (run.parent_path() / "other.yaml").string());
+  std::ofstream(run.parent_path() / "other.yaml")
+      << "orchestrator:\n  detect_every_steps: 5000\n  detect_budget_steps: 1000000000\n";
+  r = RunCommand(Bin("coins") + " run --resume " + run.string() + " --config " +
+                 (run.parent_path() / "other.yaml").string());
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_TRUE(one_line(r)) << r.output;
-  EXPECT_NE(r.output.find("orchestrator.detect_every_steps is 5000 here, 1000000000 in"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("orchestrator.detect_every_steps is 5000 here, 1000000000 in"), std::string::npos)
+      << r.output;
 }
 
 // the chain stays in collecting (detect point out of reach) while epochs are cut every 2 s:
@@ -118,12 +135,17 @@ TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
 TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoch) {
   auto dir = TempDir("chain-resume");
   const fs::path run = dir / "run";
-  const std::string chain_flags = " --set orchestrator.detect_every_steps=1000000000 --set "
-                                  "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 "
-                                  "--set orchestrator.checkpoint_timeout_s=2";
+  const std::string chain_flags =
+      " --set orchestrator.detect_every_steps=1000000000 --set "
+      "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 "
+      "--set orchestrator.checkpoint_timeout_s=2";
   std::vector<ChildProcess> coins;
-  auto first = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --steps 0 --actors 1 "
-                                   "--shards 1 --quiet" + Flags(run, TestDomain(8)) + chain_flags},
+  auto first = ChildProcess::Spawn("coins-run",
+                                   {"/bin/sh", "-c",
+                                    "exec " + Bin("coins") +
+                                        " run --steps 0 --actors 1 "
+                                        "--shards 1 --quiet" +
+                                        Flags(run, TestDomain(8)) + chain_flags},
                                    (dir / "first.log").string());
   ASSERT_TRUE(first.ok());
   coins.push_back(std::move(*first));
@@ -136,15 +158,17 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   std::ofstream(run / "chain" / ("chain-epoch-" + std::to_string(epoch + 5) + ".json")) << "{";  // newest, corrupt
   const std::string e = std::to_string(epoch);
 
-  auto second = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --resume " +
-                                    run.string() + " --steps 0"}, (dir / "resume.log").string());
+  auto second = ChildProcess::Spawn(
+      "coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --resume " + run.string() + " --steps 0"},
+      (dir / "resume.log").string());
   ASSERT_TRUE(second.ok());
   coins[0] = std::move(*second);
   auto logged = [&](const std::string& process, const std::string& text) {
     return WaitUntil([&] { return ReadText(run / "logs" / (process + ".log")).find(text) != std::string::npos; },
                      std::chrono::seconds(40));
   };
-  EXPECT_TRUE(logged("orchestrator", "resuming the chain from epoch " + e)) << ReadText(run / "logs" / "orchestrator.log");
+  EXPECT_TRUE(logged("orchestrator", "resuming the chain from epoch " + e))
+      << ReadText(run / "logs" / "orchestrator.log");
   EXPECT_TRUE(logged("learner", "resumed from checkpoint epoch " + e)) << ReadText(run / "logs" / "learner.log");
   // the shard restored the snapshot stamped with the epoch's command id
   ASSERT_TRUE(logged("replay-0", "resumed ")) << ReadText(run / "logs" / "replay-0.log");

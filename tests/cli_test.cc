@@ -54,9 +54,9 @@ TEST(Cli, YamlKeysThatAreNotNamesAreErrorsInEveryBinary) {
   std::ofstream(dir / "section.yaml") << "replay:\n  [1]: 2\n";
   std::ofstream(dir / "actor.yaml") << "actor:\n  {a: 1}: 2\n";
   const std::string quiet = " --quiet-config --set dds.domain=" + std::to_string(TestDomain());
-  ExpectOneLineError(RunCommand(Bin("coins") + " run --dir " + (dir / "run").string() + " --config " +
-                                (dir / "top.yaml").string()),
-                     "a top-level key is a list, not a section name", "coins run");
+  ExpectOneLineError(
+      RunCommand(Bin("coins") + " run --dir " + (dir / "run").string() + " --config " + (dir / "top.yaml").string()),
+      "a top-level key is a list, not a section name", "coins run");
   for (const char* binary : {"coins-replay", "coins-actor", "coins-learner", "coins-orchestrator"}) {
     ExpectOneLineError(RunCommand(Bin(binary) + quiet + " --config " + (dir / "top.yaml").string()),
                        "a top-level key is a list", binary);
@@ -118,8 +118,8 @@ TEST(Cli, ProcessBinariesValidateTheirConfig) {
   auto r = RunCommand(Bin("coins-replay") + " --set replay.capacity=0");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("replay.capacity: must be in"), std::string::npos) << r.output;
-  r = RunCommand(Bin("coins-actor") + " --set run.env=nope --quiet-config --set dds.domain=" +
-                 std::to_string(TestDomain(9)));
+  r = RunCommand(Bin("coins-actor") +
+                 " --set run.env=nope --quiet-config --set dds.domain=" + std::to_string(TestDomain(9)));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("nope"), std::string::npos) << r.output;
 }

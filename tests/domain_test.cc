@@ -93,7 +93,6 @@ TEST(TestDomains, AChildKeepsTheDomainAfterItsParentLetsGo) {
   EXPECT_TRUE(after.ok()) << after.status().message();
 }
 
-
 // the shared-memory port files a killed process left on a domain are gone once the domain is
 // leased again; a file whose name only starts like a port's stays
 TEST(TestDomains, ALeaseRemovesTheSharedMemoryPortsKilledProcessesLeft) {
@@ -102,10 +101,10 @@ TEST(TestDomains, ALeaseRemovesTheSharedMemoryPortsKilledProcessesLeft) {
   const int domain = first->domain();
   const int base = dds::kPortBase + dds::kDomainGain * domain;
   const std::string dir = dds::kSharedMemoryDir;
-  const std::vector<std::string> stale = {
-      dir + "/fastrtps_port" + std::to_string(base), dir + "/fastrtps_port" + std::to_string(base + 12) + "_el",
-      dir + "/sem.fastrtps_port" + std::to_string(base + 12) + "_mutex",
-      dir + "/fastrtps_port" + std::to_string(base + dds::kDomainGain - 1)};
+  const std::vector<std::string> stale = {dir + "/fastrtps_port" + std::to_string(base),
+                                          dir + "/fastrtps_port" + std::to_string(base + 12) + "_el",
+                                          dir + "/sem.fastrtps_port" + std::to_string(base + 12) + "_mutex",
+                                          dir + "/fastrtps_port" + std::to_string(base + dds::kDomainGain - 1)};
   // a name of the range's form that no domain's port has: stays
   const std::string other = dir + "/fastrtps_port" + std::to_string(base) + "x";
   for (const auto& f : stale) std::ofstream(f) << "left by a killed participant";

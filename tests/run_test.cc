@@ -68,8 +68,8 @@ TEST(Run, NamesAChildThatDiesAndStopsTheRest) {
 // counted as published is stored, and the run says so per actor
 void StopRunAndCheckCounts(const std::string& name, const std::string& extra) {
   auto dir = TempDir(name);
-  std::string cmd = Bin("coins") + " run --steps 0 --actors 2 --shards 2 --quiet" + RunFlags(dir / "run", TestDomain()) +
-                    extra;
+  std::string cmd =
+      Bin("coins") + " run --steps 0 --actors 2 --shards 2 --quiet" + RunFlags(dir / "run", TestDomain()) + extra;
   std::vector<ChildProcess> run;
   auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + cmd}, (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
@@ -110,18 +110,21 @@ TEST(Run, MonitorSeesEveryProcess) {
   auto dir = TempDir("run-monitor");
   int domain = TestDomain(5);
   // the chain stays in collecting (its detect point out of reach): every process reports freely
-  std::string cmd = Bin("coins") + " run --steps 0 --actors 2 --shards 1 --quiet" + RunFlags(dir / "run", domain) +
-                    " --set orchestrator.detect_every_steps=1000000000 --set orchestrator.detect_budget_steps=1000000000";
+  std::string cmd =
+      Bin("coins") + " run --steps 0 --actors 2 --shards 1 --quiet" + RunFlags(dir / "run", domain) +
+      " --set orchestrator.detect_every_steps=1000000000 --set orchestrator.detect_budget_steps=1000000000";
   std::vector<ChildProcess> run;
   auto child = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + cmd}, (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   run.push_back(std::move(*child));
   // on a loaded machine the processes take a while to start: watch once the shard listens
-  WaitUntil([&] {
-    std::ifstream log(dir / "run" / "logs" / "replay-0.log");
-    std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
-    return text.find("listening on partition") != std::string::npos;
-  }, std::chrono::seconds(30));
+  WaitUntil(
+      [&] {
+        std::ifstream log(dir / "run" / "logs" / "replay-0.log");
+        std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+        return text.find("listening on partition") != std::string::npos;
+      },
+      std::chrono::seconds(30));
   auto r = RunCommand(Bin("coins") + " monitor --json --seconds 4 --domain " + std::to_string(domain));
   StopAll(run, std::chrono::seconds(15));
   ASSERT_EQ(r.code, 0) << r.output;
@@ -129,7 +132,8 @@ TEST(Run, MonitorSeesEveryProcess) {
   ASSERT_FALSE(j.is_discarded()) << r.output;
   std::set<std::string> names;
   for (const auto& p : j["processes"]) names.insert(p["name"].get<std::string>());
-  for (const char* name : {"actor-0", "actor-1", "replay-0", "learner", "orchestrator"}) EXPECT_TRUE(names.count(name)) << name;
+  for (const char* name : {"actor-0", "actor-1", "replay-0", "learner", "orchestrator"})
+    EXPECT_TRUE(names.count(name)) << name;
   ASSERT_EQ(j["actors"].size(), 2u);
   EXPECT_GT(j["actors"][0]["steps"].get<uint64_t>(), 0u);
   ASSERT_EQ(j["shards"].size(), 1u);
@@ -138,7 +142,8 @@ TEST(Run, MonitorSeesEveryProcess) {
   ASSERT_TRUE(j["chain"].is_object()) << r.output;
   EXPECT_EQ(j["chain"]["phase"], "collecting") << j["chain"];
   EXPECT_EQ(j["chain"]["source"], "Action") << j["chain"];
-  EXPECT_NE(j["chain"]["message"].get<std::string>().find("collecting for source Action"), std::string::npos) << j["chain"];
+  EXPECT_NE(j["chain"]["message"].get<std::string>().find("collecting for source Action"), std::string::npos)
+      << j["chain"];
   // coins run stopped on SIGTERM like on Ctrl-C: exit 0
   EXPECT_TRUE(run[0].succeeded()) << run[0].Describe();
 }

@@ -69,7 +69,8 @@ TEST(Skeleton, KillingOneActorLeavesTheRestExchangingData) {
   std::this_thread::sleep_for(std::chrono::seconds(2));
   EXPECT_GT(stored_from(1, 1), before + 1000) << "actor-1 -> replay-1 stopped flowing";
   EXPECT_EQ(stored_from(0, 0), dead_before) << "data from the killed actor kept arriving";
-  for (auto* p : {&c.actors[1], &c.shards[0], &c.shards[1]}) EXPECT_FALSE(p->Poll()) << p->name() << " " << p->Describe();
+  for (auto* p : {&c.actors[1], &c.shards[0], &c.shards[1]})
+    EXPECT_FALSE(p->Poll()) << p->name() << " " << p->Describe();
   StatusView v = c.collector->Snapshot();
   for (const char* name : {"replay-0", "replay-1", "actor-1"}) {
     ASSERT_TRUE(v.heartbeats.count(name)) << name;

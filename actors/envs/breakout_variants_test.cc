@@ -49,10 +49,10 @@ struct Runner {
 };
 
 TEST(BreakoutVariants, NamesAndBlockCounts) {
-  const std::pair<BreakoutVariant, int> want[] = {
-      {BreakoutVariant::kBase, 100}, {BreakoutVariant::kSingle, 1}, {BreakoutVariant::kHard, 60},
-      {BreakoutVariant::kBig, 1},    {BreakoutVariant::kNeg, 10},   {BreakoutVariant::kCenter, 45},
-      {BreakoutVariant::kProx, 60}};
+  const std::pair<BreakoutVariant, int> want[] = {{BreakoutVariant::kBase, 100}, {BreakoutVariant::kSingle, 1},
+                                                  {BreakoutVariant::kHard, 60},  {BreakoutVariant::kBig, 1},
+                                                  {BreakoutVariant::kNeg, 10},   {BreakoutVariant::kCenter, 45},
+                                                  {BreakoutVariant::kProx, 60}};
   for (auto [v, n] : want) {
     auto env = MakeEnv(BreakoutName(v));
     ASSERT_TRUE(env.ok()) << BreakoutName(v);
@@ -113,7 +113,7 @@ TEST(BreakoutVariants, HardBlocksReflectAndTheTargetEnds) {
   EXPECT_TRUE(s.interactions & B::kBallBlock);
   EXPECT_EQ(s.reward, 0.0f);
   EXPECT_EQ(r.env.blocks()[hard].attr, -1);  // unbreakable
-  EXPECT_EQ(r.env.ball_vy(), 1);              // reflected
+  EXPECT_EQ(r.env.ball_vy(), 1);             // reflected
   s = r.Hit(goal);
   EXPECT_EQ(s.reward, 1.0f);
   EXPECT_TRUE(s.done);

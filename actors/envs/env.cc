@@ -9,9 +9,9 @@ namespace coins::envs {
 
 namespace {
 
-constexpr BreakoutVariant kBreakouts[] = {
-    BreakoutVariant::kBase, BreakoutVariant::kSingle, BreakoutVariant::kHard, BreakoutVariant::kBig,
-    BreakoutVariant::kNeg,  BreakoutVariant::kCenter, BreakoutVariant::kProx};
+constexpr BreakoutVariant kBreakouts[] = {BreakoutVariant::kBase, BreakoutVariant::kSingle, BreakoutVariant::kHard,
+                                          BreakoutVariant::kBig,  BreakoutVariant::kNeg,    BreakoutVariant::kCenter,
+                                          BreakoutVariant::kProx};
 
 }  // namespace
 

@@ -29,8 +29,8 @@ namespace coins::envs {
 
 struct StepResult {
   float reward = 0.0f;
-  bool done = false;        // the episode ended (terminal state)
-  bool truncated = false;   // the episode was cut by a time limit (state not terminal)
+  bool done = false;          // the episode ended (terminal state)
+  bool truncated = false;     // the episode was cut by a time limit (state not terminal)
   uint32_t interactions = 0;  // bit i set: spec().interactions[i] happened this step
 };
 
@@ -43,8 +43,7 @@ class Env {
   // starts a new episode continuing the env's own random stream (after done/truncated)
   virtual void ResetNext(std::span<float> state) = 0;
   // validates the action, then advances one step and writes the next state
-  virtual Status Step(std::span<const float> action, std::span<float> next_state,
-                      StepResult* result) = 0;
+  virtual Status Step(std::span<const float> action, std::span<float> next_state, StepResult* result) = 0;
   // writes the current state without stepping
   virtual void GetState(std::span<float> state) const = 0;
   // full simulator state (including random generator) as bytes, and back

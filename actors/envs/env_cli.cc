@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "actors/envs/render.h"
-#include "actors/envs/rollout_format.h"
 #include "actors/envs/rng.h"
+#include "actors/envs/rollout_format.h"
 #include "common/cli_checks.h"
 
 namespace coins::envs {
@@ -35,8 +35,7 @@ Status ParseAction(const ActionSpec& a, const std::string& line, std::vector<flo
   if (a.discrete) {
     long v = 0;
     auto [p, ec] = std::from_chars(line.data(), line.data() + line.size(), v);
-    if (ec != std::errc() || p != line.data() + line.size())
-      return Errorf("'{}' is not an integer action", line);
+    if (ec != std::errc() || p != line.data() + line.size()) return Errorf("'{}' is not an integer action", line);
     if (v < 0 || v >= a.n) return Errorf("action {} is out of range [0, {}]", v, a.n - 1);
     out->push_back(static_cast<float>(v));
     return Status::Ok();
@@ -96,12 +95,19 @@ Status RunList(bool json) {
     if (json) {
       nlohmann::json j;
       j["name"] = s.name;
-      j["action"] = {{"discrete", s.action.discrete}, {"n", s.action.n}, {"dim", s.action.dim},
-                     {"low", s.action.low}, {"high", s.action.high}};
+      j["action"] = {{"discrete", s.action.discrete},
+                     {"n", s.action.n},
+                     {"dim", s.action.dim},
+                     {"low", s.action.low},
+                     {"high", s.action.high}};
       for (const FactorSpec& f : s.factors)
-        j["factors"].push_back({{"name", f.name}, {"features", f.features}, {"instances", f.instances},
-                                {"multi_instance", f.multi_instance}, {"feature_names", f.feature_names},
-                                {"low", f.low}, {"high", f.high}});
+        j["factors"].push_back({{"name", f.name},
+                                {"features", f.features},
+                                {"instances", f.instances},
+                                {"multi_instance", f.multi_instance},
+                                {"feature_names", f.feature_names},
+                                {"low", f.low},
+                                {"high", f.high}});
       for (const InteractionPair& p : s.interactions) j["interactions"].push_back(p.label());
       j["max_episode_steps"] = s.max_episode_steps;
       j["state_dim"] = s.state_dim();
@@ -111,14 +117,13 @@ Status RunList(bool json) {
     std::string factors;
     for (const FactorSpec& f : s.factors)
       factors += fmt::format("{}{} {}x{}", factors.empty() ? "" : ", ", f.name, f.instances, f.features);
-    std::string action = s.action.discrete
-                             ? fmt::format("discrete {}", s.action.n)
-                             : fmt::format("continuous {} in [{}, {}]", s.action.dim, fmt::join(s.action.low, " "),
-                                           fmt::join(s.action.high, " "));
+    std::string action = s.action.discrete ? fmt::format("discrete {}", s.action.n)
+                                           : fmt::format("continuous {} in [{}, {}]", s.action.dim,
+                                                         fmt::join(s.action.low, " "), fmt::join(s.action.high, " "));
     std::string inter;
     for (const InteractionPair& p : s.interactions) inter += (inter.empty() ? "" : ", ") + p.label();
-    fmt::print("{}\n  action: {}\n  factors: {} (state_dim {})\n  interactions: {}\n  horizon: {}\n", s.name,
-               action, factors, s.state_dim(), inter,
+    fmt::print("{}\n  action: {}\n  factors: {} (state_dim {})\n  interactions: {}\n  horizon: {}\n", s.name, action,
+               factors, s.state_dim(), inter,
                s.max_episode_steps ? std::to_string(s.max_episode_steps) : std::string("none"));
   }
   if (json) fmt::print("{}\n", all.dump());
@@ -172,16 +177,17 @@ Status WriteRollout(Env& env, const RolloutOptions& o, const std::vector<std::ve
   std::string line;
   int episode = 0;
   for (int t = 0; t < steps; ++t) {
-    if (file_actions.empty()) RandomAction(spec.action, policy, &action);
-    else action = file_actions[t];
+    if (file_actions.empty())
+      RandomAction(spec.action, policy, &action);
+    else
+      action = file_actions[t];
     StepResult r;
     Status st = env.Step(action, next, &r);
     if (!st.ok()) return st.WithContext(fmt::format("step {}", t));
     // one JSON object per transition
     line.clear();
     AppendRolloutLine(spec, t, episode, state, action, next, r, &line);
-    if (std::fwrite(line.data(), 1, line.size(), out) != line.size())
-      return Errorf("--out {}: write failed", o.out);
+    if (std::fwrite(line.data(), 1, line.size(), out) != line.size()) return Errorf("--out {}: write failed", o.out);
     // next episode after done or truncated
     if (r.done || r.truncated) {
       ++episode;
@@ -249,11 +255,12 @@ void AddEnvCommands(CLI::App& app) {
   CLI::App* rollout = env->add_subcommand("rollout", "Run an env and write one JSON object per transition");
   rollout->add_option("--env", ro->env, "Env name")->required()->check(CLI::IsMember(names));
   rollout->add_option("--seed", ro->seed, "Env seed")->required()->check(seed_check);
-  auto* actions = rollout->add_option("--actions", ro->actions_file,
-                                      "File with one action per line (integer, or comma-separated floats)")
+  auto* actions = rollout
+                      ->add_option("--actions", ro->actions_file,
+                                   "File with one action per line (integer, or comma-separated floats)")
                       ->check(CLI::ExistingFile);
-  auto* pol = rollout->add_option("--policy", ro->policy, "Action policy instead of a file")
-                  ->check(CLI::IsMember({"random"}));
+  auto* pol =
+      rollout->add_option("--policy", ro->policy, "Action policy instead of a file")->check(CLI::IsMember({"random"}));
   actions->excludes(pol);
   rollout->add_option("--steps", ro->steps, "Number of steps (with --actions: at most this many)")
       ->check(cli::Integer(1, std::numeric_limits<int>::max()));

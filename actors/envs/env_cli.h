@@ -41,10 +41,10 @@ struct RenderOptions {
   std::string policy = "random";
   int steps = 100;
   std::string out;
-  int scale = 4;        // Breakout pixels per game pixel
-  int width = 320;      // pushing image size
+  int scale = 4;    // Breakout pixels per game pixel
+  int width = 320;  // pushing image size
   int height = 240;
-  int delay_cs = 5;     // gif frame delay, hundredths of a second
+  int delay_cs = 5;  // gif frame delay, hundredths of a second
 };
 Status RunRender(const RenderOptions& o);
 

@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <iterator>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -49,7 +49,8 @@ TEST(EnvCli, BreakoutRandomRolloutLines) {
   int episode = 0;
   for (size_t i = 0; i < lines.size(); ++i) {
     const auto& l = lines[i];
-    for (const char* key : {"t", "episode", "state", "action", "next_state", "reward", "done", "truncated", "interactions"})
+    for (const char* key :
+         {"t", "episode", "state", "action", "next_state", "reward", "done", "truncated", "interactions"})
       ASSERT_TRUE(l.contains(key)) << key;
     EXPECT_EQ(l["t"], static_cast<int>(i));
     EXPECT_EQ(l["episode"], episode);
@@ -155,8 +156,8 @@ TEST(EnvCli, FlagErrors) {
     std::reverse(args.begin(), args.end());
     app.parse(args);
   };
-  EXPECT_THROW(parse({"env", "rollout", "--env", "nope", "--seed", "1", "--policy", "random", "--steps", "3",
-                      "--out", TempPath("x.jsonl")}),
+  EXPECT_THROW(parse({"env", "rollout", "--env", "nope", "--seed", "1", "--policy", "random", "--steps", "3", "--out",
+                      TempPath("x.jsonl")}),
                CLI::ValidationError);
   EXPECT_THROW(parse({"env", "rollout", "--env", "breakout", "--seed", "1", "--policy", "random", "--steps", "-3",
                       "--out", TempPath("x.jsonl")}),
@@ -179,8 +180,8 @@ TEST(EnvCli, FlagErrors) {
                      "--out", TempPath("x.jsonl")})
                 .find("--steps: must be an integer in [1, 2147483647], got '18446744073709551616'"),
             std::string::npos);
-  const std::string neg = message({"env", "render", "--env", "breakout", "--seed", "1", "--steps", "-1", "--out",
-                                   TempPath("x.png")});
+  const std::string neg =
+      message({"env", "render", "--env", "breakout", "--seed", "1", "--steps", "-1", "--out", TempPath("x.png")});
   EXPECT_NE(neg.find("--steps: must be an integer in [0, 1000000], got '-1'"), std::string::npos) << neg;
   EXPECT_LT(neg.size(), 100u) << neg;
   EXPECT_NE(message({"env", "rollout", "--env", "breakout", "--seed", "-1", "--policy", "random", "--steps", "3",
@@ -224,9 +225,9 @@ TEST(EnvRender, PushingEglRenderAndFiles) {
     red += R > 150 && G < 80 && B < 80;
     yellow += R > 180 && G > 150 && B < 80;
   }
-  EXPECT_GT(green, 20);   // goal disc
-  EXPECT_GT(red, 10);     // cube
-  EXPECT_GT(yellow, 200); // regions
+  EXPECT_GT(green, 20);    // goal disc
+  EXPECT_GT(red, 10);      // cube
+  EXPECT_GT(yellow, 200);  // regions
   const std::string png = TempPath("f.png"), gif = TempPath("f.gif");
   ASSERT_TRUE(WritePng(png, *img).ok());
   ASSERT_TRUE(WriteGif(gif, {*img, *img}, 5).ok());

@@ -10,8 +10,7 @@
 namespace coins::envs {
 
 Status WritePng(const std::string& path, const Image& image) {
-  if (image.width <= 0 || image.height <= 0 ||
-      image.rgb.size() != static_cast<size_t>(image.width) * image.height * 3)
+  if (image.width <= 0 || image.height <= 0 || image.rgb.size() != static_cast<size_t>(image.width) * image.height * 3)
     return Errorf("png {}: bad image size {}x{}", path, image.width, image.height);
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
   if (!f) return Errorf("png {}: cannot open for writing", path);

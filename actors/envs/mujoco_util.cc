@@ -68,8 +68,10 @@ Result<const mjModel*> SharedPushingModel() {
   static Status status;
   std::call_once(once, [] {
     Result<ModelPtr> r = LoadModelFromString(PushingXml(), "pushing");
-    if (r.ok()) model = std::move(r).value();
-    else status = r.status();
+    if (r.ok())
+      model = std::move(r).value();
+    else
+      status = r.status();
   });
   if (!status.ok()) return status;
   return static_cast<const mjModel*>(model.get());

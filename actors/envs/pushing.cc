@@ -13,8 +13,8 @@ namespace {
 
 constexpr uint32_t kSaveMagic = 0x31485350;  // "PSH1"
 constexpr int kSettleSubsteps = 20;
-constexpr double kStartZ = 0.085;            // fingertip joint z at reset (centre 0.1 m up)
-constexpr double kMovedEps = 1e-4;           // commanded displacement that counts as a move
+constexpr double kStartZ = 0.085;   // fingertip joint z at reset (centre 0.1 m up)
+constexpr double kMovedEps = 1e-4;  // commanded displacement that counts as a move
 
 FactorSpec Vec3(const std::string& name, int instances, std::array<float, 3> lo, std::array<float, 3> hi) {
   FactorSpec f;
@@ -194,12 +194,12 @@ void PushingEnv::ResetNext(std::span<float> state) {
   WriteState(state);
 }
 
-Status PushingEnv::Step(std::span<const float> action, std::span<float> next_state,
-                        StepResult* result) {
+Status PushingEnv::Step(std::span<const float> action, std::span<float> next_state, StepResult* result) {
   // validate before touching anything
   if (action.size() != 3) return Errorf("{}: action must have 3 floats, got {}", spec_.name, action.size());
   for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(action[i])) return Errorf("{}: action[{}] = {} is not a finite number", spec_.name, i, action[i]);
+    if (!std::isfinite(action[i]))
+      return Errorf("{}: action[{}] = {} is not a finite number", spec_.name, i, action[i]);
     if (action[i] < -1.0f || action[i] > 1.0f)
       return Errorf("{}: action[{}] = {} out of range [-1, 1]", spec_.name, i, action[i]);
   }
@@ -242,8 +242,7 @@ Status PushingEnv::Step(std::span<const float> action, std::span<float> next_sta
   int bad_after = 0;
   for (int w : {mjWARN_BADQPOS, mjWARN_BADQVEL, mjWARN_BADQACC}) bad_after += d->warning[w].number;
   if (st.ok() && bad_after != bad_before)
-    st = Errorf("{}: simulation became unstable (MuJoCo reset the state): {}", spec_.name,
-                detail::LastMujocoWarning());
+    st = Errorf("{}: simulation became unstable (MuJoCo reset the state): {}", spec_.name, detail::LastMujocoWarning());
   if (!st.ok()) {
     sim_error_ = st;
     return st;
@@ -336,18 +335,17 @@ Status PushingEnv::RestoreState(std::span<const uint8_t> bytes) {
   std::array<float, 3> last_action{};
   float reward = 0, done = 0;
   mjtNum time = 0;
-  std::vector<mjtNum> qpos(m->nq), qvel(m->nv), act(m->na), ctrl(m->nu), warm(m->nv),
-      mpos(3 * m->nmocap), mquat(4 * m->nmocap);
+  std::vector<mjtNum> qpos(m->nq), qvel(m->nv), act(m->na), ctrl(m->nu), warm(m->nv), mpos(3 * m->nmocap),
+      mquat(4 * m->nmocap);
   if (!rd.Get(&magic) || magic != kSaveMagic) return Errorf("{}: saved state is not a pushing state", spec_.name);
   if (!rd.Get(&easy) || easy != static_cast<int32_t>(easy_))
     return Errorf("{}: saved state is from the other pushing variant", spec_.name);
   if (!rd.GetArray(rng, 4) || !rd.GetArray(cube_start.data(), 2) || !rd.GetArray(goal.data(), 2) ||
-      !rd.GetArray(regions.data(), regions.size()) || !rd.GetArray(last_action.data(), 3) ||
-      !rd.Get(&reward) || !rd.Get(&done) || !rd.Get(&steps) || !rd.Get(&over) || !rd.Get(&time) ||
-      !rd.GetArray(qpos.data(), qpos.size()) || !rd.GetArray(qvel.data(), qvel.size()) ||
-      !rd.GetArray(act.data(), act.size()) || !rd.GetArray(ctrl.data(), ctrl.size()) ||
-      !rd.GetArray(warm.data(), warm.size()) || !rd.GetArray(mpos.data(), mpos.size()) ||
-      !rd.GetArray(mquat.data(), mquat.size()) || !rd.done())
+      !rd.GetArray(regions.data(), regions.size()) || !rd.GetArray(last_action.data(), 3) || !rd.Get(&reward) ||
+      !rd.Get(&done) || !rd.Get(&steps) || !rd.Get(&over) || !rd.Get(&time) || !rd.GetArray(qpos.data(), qpos.size()) ||
+      !rd.GetArray(qvel.data(), qvel.size()) || !rd.GetArray(act.data(), act.size()) ||
+      !rd.GetArray(ctrl.data(), ctrl.size()) || !rd.GetArray(warm.data(), warm.size()) ||
+      !rd.GetArray(mpos.data(), mpos.size()) || !rd.GetArray(mquat.data(), mquat.size()) || !rd.done())
     return Errorf("{}: saved state is truncated or has the wrong size", spec_.name);
   uint32_t mask = 0;
   for (int c : regions) {

@@ -34,11 +34,11 @@ class PushingEnv final : public Env {
   static constexpr int kSubsteps = 25;
   static constexpr int kRegions = 15;
   static constexpr int kGrid = 5;
-  static constexpr double kCell = 0.06;        // grid cell side (m)
-  static constexpr double kHalfSpawn = 0.15;   // spawn square half side (m)
-  static constexpr double kBounds = 0.175;     // out-of-bounds limit on max(|x|, |y|)
-  static constexpr double kSuccess = 0.05;     // cube-goal xy distance that ends the episode
-  static constexpr double kMaxMove = 0.05;     // servo target displacement per unit action
+  static constexpr double kCell = 0.06;       // grid cell side (m)
+  static constexpr double kHalfSpawn = 0.15;  // spawn square half side (m)
+  static constexpr double kBounds = 0.175;    // out-of-bounds limit on max(|x|, |y|)
+  static constexpr double kSuccess = 0.05;    // cube-goal xy distance that ends the episode
+  static constexpr double kMaxMove = 0.05;    // servo target displacement per unit action
   static constexpr double kFingerRestZ = 0.015;
   static constexpr double kCubeHalf = 0.025;
   enum Bit : uint32_t { kActionGripper = 1u << 0, kGripperBlock = 1u << 1 };
@@ -49,8 +49,7 @@ class PushingEnv final : public Env {
   const EnvSpec& spec() const override { return spec_; }
   void Reset(uint64_t seed, std::span<float> state) override;
   void ResetNext(std::span<float> state) override;
-  Status Step(std::span<const float> action, std::span<float> next_state,
-              StepResult* result) override;
+  Status Step(std::span<const float> action, std::span<float> next_state, StepResult* result) override;
   void GetState(std::span<float> state) const override;
   std::vector<uint8_t> SaveState() const override;
   Status RestoreState(std::span<const uint8_t> bytes) override;
@@ -76,8 +75,8 @@ class PushingEnv final : public Env {
 
  private:
   PushingEnv(const mjModel* m, bool easy);
-  void Sample();        // cube, goal and regions from rng_
-  void Place();         // writes the sampled episode into mjData and settles the cube
+  void Sample();  // cube, goal and regions from rng_
+  void Place();   // writes the sampled episode into mjData and settles the cube
   void WriteState(std::span<float> out) const;
 
   const mjModel* m_;

@@ -159,7 +159,7 @@ TEST(Pushing, ScriptedPushLabelsContactAndMovesCube) {
   }
   const auto c1 = r.env->cube();
   EXPECT_GT(touches, 2);
-  EXPECT_GT(c1[0] - c0[0], 0.02);          // pushed along +x
+  EXPECT_GT(c1[0] - c0[0], 0.02);            // pushed along +x
   EXPECT_LT(std::abs(c1[1] - c0[1]), 0.01);  // and not much sideways
   // the fingertip stays behind the cube face it pushes
   EXPECT_LT(r.env->gripper()[0], c1[0] - 0.025);
@@ -191,7 +191,7 @@ TEST(Pushing, RewardsRegionsBoundsSuccessAndHorizon) {
   StepResult s = r.Step(0, 0, 0);
   EXPECT_TRUE(s.done);
   EXPECT_FALSE(s.truncated);
-  EXPECT_EQ(r.state.back() , -0.1f);
+  EXPECT_EQ(r.state.back(), -0.1f);
   // the horizon truncates without touching: 300 steps of -0.1 (easy: 30)
   for (bool easy : {false, true}) {
     Runner q(easy, 8);
@@ -246,8 +246,8 @@ TEST(Pushing, BadActionsAreErrorsAndLeaveEnvUnchanged) {
   const std::vector<uint8_t> before = r.env->SaveState();
   const std::vector<float> state_before = r.state;
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  const std::array<float, 3> bad[] = {{nan, 0, 0}, {0, 1.5f, 0}, {0, 0, -1.01f},
-                                      {0, 0, std::numeric_limits<float>::infinity()}};
+  const std::array<float, 3> bad[] = {
+      {nan, 0, 0}, {0, 1.5f, 0}, {0, 0, -1.01f}, {0, 0, std::numeric_limits<float>::infinity()}};
   for (const auto& a : bad) {
     StepResult s;
     Status st = r.env->Step(a, r.state, &s);

@@ -68,8 +68,8 @@ class MujocoRenderer final : public FrameRenderer {
     width_ = width;
     height_ = height;
     if (width > m->vis.global.offwidth || height > m->vis.global.offheight || width < 16 || height < 16)
-      return Errorf("render: size {}x{} must be within 16x16 .. {}x{}", width, height,
-                    m->vis.global.offwidth, m->vis.global.offheight);
+      return Errorf("render: size {}x{} must be within 16x16 .. {}x{}", width, height, m->vis.global.offwidth,
+                    m->vis.global.offheight);
     // egl: Mesa's surfaceless platform (no X, no GPU), else the default display; an
     // RGBA/depth pbuffer config and a desktop OpenGL context
     EGLint major = 0, minor = 0;
@@ -82,9 +82,23 @@ class MujocoRenderer final : public FrameRenderer {
         return Errorf("render: EGL has no usable display (eglInitialize error 0x{:x})", eglGetError());
       }
     }
-    const EGLint cfg_attr[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8,
-                               EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8,
-                               EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+    const EGLint cfg_attr[] = {EGL_SURFACE_TYPE,
+                               EGL_PBUFFER_BIT,
+                               EGL_RED_SIZE,
+                               8,
+                               EGL_GREEN_SIZE,
+                               8,
+                               EGL_BLUE_SIZE,
+                               8,
+                               EGL_ALPHA_SIZE,
+                               8,
+                               EGL_DEPTH_SIZE,
+                               24,
+                               EGL_STENCIL_SIZE,
+                               8,
+                               EGL_RENDERABLE_TYPE,
+                               EGL_OPENGL_BIT,
+                               EGL_NONE};
     EGLConfig cfg;
     EGLint n = 0;
     if (!eglChooseConfig(display_, cfg_attr, &cfg, 1, &n) || n < 1)
@@ -120,7 +134,8 @@ class MujocoRenderer final : public FrameRenderer {
 
   Result<Image> Render(const Env& env) override {
     const auto* p = dynamic_cast<const PushingEnv*>(&env);
-    if (!p || p->model() != m_) return Errorf("render: {} is not the pushing env this renderer was made for", env.spec().name);
+    if (!p || p->model() != m_)
+      return Errorf("render: {} is not the pushing env this renderer was made for", env.spec().name);
     // copy the positions into scratch data and recompute poses; the env itself is untouched
     const mjModel* m = m_;
     mjData* d = data_.get();
@@ -148,8 +163,7 @@ class MujocoRenderer final : public FrameRenderer {
     }));
     // OpenGL rows run bottom-up
     const size_t row = static_cast<size_t>(width_) * 3;
-    for (int y = 0; y < height_; ++y)
-      std::memcpy(img.rgb.data() + y * row, raw.data() + (height_ - 1 - y) * row, row);
+    for (int y = 0; y < height_; ++y) std::memcpy(img.rgb.data() + y * row, raw.data() + (height_ - 1 - y) * row, row);
     return img;
   }
 

@@ -150,7 +150,7 @@ void FillDdsShards(const Args& a, const DdsOptions& ddso, DdsShards* s,
                    const std::vector<std::unique_ptr<msg::TransitionBatch>>& batches) {
   for (int k = 0; k < a.shards; ++k) {
     auto w = s->node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(ddso),
-                                                                dds::ShardPartition(k));
+                                                                 dds::ShardPartition(k));
     if (!w.ok()) Fail(w.status().message());
     auto t0 = Clock::now();
     while (w->matched() == 0 && Since(t0) < 30) std::this_thread::sleep_for(10ms);
@@ -273,8 +273,10 @@ void Repeat(const Args& a, const SampleSpec& spec, const rl::DqnOptions& net, In
 int Main(int argc, char** argv) {
   Args a;
   CLI::App app("Learner updates/s from replay shards over DDS against in-process shards", "coins-bench-learner");
-  app.add_option("--domain", a.domain, "DDS domain of the bench's shards (default 100 + pid % 100); never one "
-                                       "another live test or bench uses")->check(CLI::Range(0, 232));
+  app.add_option("--domain", a.domain,
+                 "DDS domain of the bench's shards (default 100 + pid % 100); never one "
+                 "another live test or bench uses")
+      ->check(CLI::Range(0, 232));
   app.add_option("--shards", a.shards, "replay shards")->check(CLI::Range(1, 8));
   app.add_option("--fill", a.fill, "transitions per shard")->check(CLI::Range(int64_t(10000), int64_t(10'000'000)));
   app.add_option("--batch", a.batch, "learner batch size")->check(CLI::Range(1, 4096));

@@ -160,8 +160,7 @@ void BenchPaddle(coins::Figures* f, int seeds) {
       return;
     }
     // a run that misses the target counts as the whole budget
-    steps.push_back(r->env_steps_to_target >= 0 ? double(r->env_steps_to_target)
-                                                : double(o.max_env_steps));
+    steps.push_back(r->env_steps_to_target >= 0 ? double(r->env_steps_to_target) : double(o.max_env_steps));
     seconds.push_back(r->env_steps_to_target >= 0 ? r->seconds_to_target : r->wall_seconds);
     success.push_back(r->env_steps_to_target >= 0 ? 1.0 : 0.0);
   }

@@ -11,14 +11,14 @@
 #include <filesystem>
 #include <iostream>
 
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "actors/actor.h"
 #include "bench/replay_shard.h"
+#include "common/cli_checks.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
-#include "common/cli_checks.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -33,7 +33,7 @@ struct Args {
   int repeats = 5;
   bool json = false;
   int64_t domain = -1;  // -1: a free domain of the lease range
-  std::string only;  // "standalone" or "transport": measure one kind (for profiling)
+  std::string only;     // "standalone" or "transport": measure one kind (for profiling)
 };
 
 // steps per second of one actor run of `seconds` into `sink` (including the final flush)
@@ -46,8 +46,8 @@ double TimedRun(const Args& a, BatchSink* sink, uint64_t seed) {
   }
   auto start = std::chrono::steady_clock::now();
   auto end = start + std::chrono::duration<double>(a.seconds);
-  (*actor)->Run(0, [&] { return std::chrono::steady_clock::now() >= end; }, [](const ActorCounters&) {},
-                std::chrono::hours(1));
+  (*actor)->Run(
+      0, [&] { return std::chrono::steady_clock::now() >= end; }, [](const ActorCounters&) {}, std::chrono::hours(1));
   sink->Flush(std::chrono::seconds(30));
   double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return double((*actor)->counters().transitions_published) / dt;
@@ -55,13 +55,15 @@ double TimedRun(const Args& a, BatchSink* sink, uint64_t seed) {
 
 int Main(int argc, char** argv) {
   Args a;
-  CLI::App app("Actor step rate standalone and publishing to one replay shard over shared memory", "coins-bench-transport");
+  CLI::App app("Actor step rate standalone and publishing to one replay shard over shared memory",
+               "coins-bench-transport");
   app.add_option("--env", a.env, "environment");
   app.add_option("--seconds", a.seconds, "seconds per measurement")->check(cli::Finite(0, 3600, true));
   bench::AddDomainOption(app, &a.domain);
   app.add_option("--repeats", a.repeats, "measurements of each kind (medians are printed)")->check(CLI::Range(1, 100));
   app.add_flag("--json", a.json, "print one JSON object");
-  app.add_option("--only", a.only, "measure only one kind (for profiling)")->check(CLI::IsMember({"standalone", "transport"}));
+  app.add_option("--only", a.only, "measure only one kind (for profiling)")
+      ->check(CLI::IsMember({"standalone", "transport"}));
   CLI11_PARSE(app, argc, argv);
   SetupLogging("bench", "warn");
 

@@ -2,15 +2,15 @@
 
 #include <algorithm>
 #include <climits>
-#include <cstdlib>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
 
 #include <fmt/ranges.h>
-#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
+#include <nlohmann/json.hpp>
 
 namespace coins {
 namespace {
@@ -108,8 +108,7 @@ class YamlReader final : public ConfigVisitor {
     }
     value = std::move(parsed);
   }
-  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max,
-               std::string_view) override {
+  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max, std::string_view) override {
     YAML::Node n = Take(key);
     if (!n || !status_.ok()) return;
     if (!n.IsSequence()) {
@@ -187,8 +186,7 @@ class YamlWriter final : public ConfigVisitor {
   void Bool(std::string_view key, bool& value, std::string_view) override {
     out_ << YAML::Key << std::string(key) << YAML::Value << value;
   }
-  void String(std::string_view key, std::string& value, const std::vector<std::string>&,
-              std::string_view) override {
+  void String(std::string_view key, std::string& value, const std::vector<std::string>&, std::string_view) override {
     out_ << YAML::Key << std::string(key) << YAML::Value << YAML::DoubleQuoted << value;
   }
   void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override {
@@ -221,8 +219,7 @@ class RangeChecker final : public ConfigVisitor {
     for (double x : value)
       if (!std::isfinite(x)) Fail(fmt::format("{} has a non-finite entry {}", key, x));
   }
-  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max,
-               std::string_view) override {
+  void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max, std::string_view) override {
     for (int64_t x : value)
       if (x < min || x > max) Fail(fmt::format("{} entries must be in [{}, {}], got {}", key, min, max, x));
   }
@@ -374,8 +371,7 @@ Status ConfigLoader::LoadSections(const YAML::Node& root, const std::string& ori
     if (!section) {
       if (std::find(known.begin(), known.end(), name) != known.end()) continue;  // another process's
       std::string hint = ClosestMatch(name, known);
-      return Errorf("{}: unknown section '{}'{}", origin, name,
-                    hint.empty() ? "" : " (did you mean '" + hint + "'?)");
+      return Errorf("{}: unknown section '{}'{}", origin, name, hint.empty() ? "" : " (did you mean '" + hint + "'?)");
     }
     if (kv.second.IsNull()) continue;
     if (!kv.second.IsMap()) return Errorf("{}: section '{}' must be a map of keys", origin, name);

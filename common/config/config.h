@@ -31,14 +31,12 @@ namespace coins {
 class ConfigVisitor {
  public:
   virtual ~ConfigVisitor() = default;
-  virtual void Int(std::string_view key, int64_t& value, int64_t min, int64_t max,
-                   std::string_view doc) = 0;
-  virtual void Float(std::string_view key, double& value, double min, double max,
-                     std::string_view doc) = 0;
+  virtual void Int(std::string_view key, int64_t& value, int64_t min, int64_t max, std::string_view doc) = 0;
+  virtual void Float(std::string_view key, double& value, double min, double max, std::string_view doc) = 0;
   virtual void Bool(std::string_view key, bool& value, std::string_view doc) = 0;
   // choices empty: any string
-  virtual void String(std::string_view key, std::string& value,
-                      const std::vector<std::string>& choices, std::string_view doc) = 0;
+  virtual void String(std::string_view key, std::string& value, const std::vector<std::string>& choices,
+                      std::string_view doc) = 0;
   // a list of floats; empty allowed
   virtual void FloatList(std::string_view key, std::vector<double>& value, std::string_view doc) = 0;
   // a list of integers, each within [min, max]; empty allowed
@@ -63,7 +61,7 @@ Status CheckConfigRanges(const std::function<void(ConfigVisitor&)>& visit);
 
 // A named section of the config file bound to an options struct. The options struct outlives it.
 struct ConfigSection {
-  std::string name;                                  // top-level key, e.g. "replay"
+  std::string name;  // top-level key, e.g. "replay"
   std::function<void(ConfigVisitor&)> visit;
   std::function<Status()> validate;
 

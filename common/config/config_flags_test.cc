@@ -50,8 +50,8 @@ Parsed Parse(std::vector<std::string> args) {
 }
 
 TEST(ConfigFlags, EveryFieldIsAFlagWithDashes) {
-  Parsed p = Parse({"--steps", "7", "--rate", "0.25", "--gate", "false", "--rule", "absolute", "--hidden-sizes",
-                    "512,256,128"});
+  Parsed p = Parse(
+      {"--steps", "7", "--rate", "0.25", "--gate", "false", "--rule", "absolute", "--hidden-sizes", "512,256,128"});
   ASSERT_EQ(p.cli_error, "");
   ASSERT_TRUE(p.applied.ok()) << p.applied.message();
   EXPECT_EQ(p.options.steps, 7);

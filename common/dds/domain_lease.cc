@@ -50,8 +50,8 @@ int RemoveStaleSharedMemoryPorts(int domain) {
   int removed = 0;
   for (int port = base; port < base + kDomainGain; ++port) {
     const std::string name = std::string(kSharedMemoryDir) + "/fastrtps_port" + std::to_string(port);
-    for (const std::string& path : {name, name + "_el", std::string(kSharedMemoryDir) + "/sem.fastrtps_port" +
-                                                            std::to_string(port) + "_mutex"})
+    for (const std::string& path :
+         {name, name + "_el", std::string(kSharedMemoryDir) + "/sem.fastrtps_port" + std::to_string(port) + "_mutex"})
       removed += ::unlink(path.c_str()) == 0;
   }
   return removed;
@@ -98,12 +98,11 @@ Result<DomainLease> DomainLease::AcquireExactly(int domain) {
   const std::string dir = LockDir();
   COINS_RETURN_IF_ERROR(EnsureDir(dir));
   int fd = OpenLockFile(dir, domain);
-  if (fd < 0) return Errorf("DDS domain locks: cannot open the lock of domain {} in {}: {}", domain, dir,
-                            std::strerror(errno));
+  if (fd < 0)
+    return Errorf("DDS domain locks: cannot open the lock of domain {} in {}: {}", domain, dir, std::strerror(errno));
   if (!TryLock(fd)) {
     ::close(fd);
-    return Errorf("DDS domain {} is in use by another test or benchmark (lock {}/domain-{}.lock)", domain, dir,
-                  domain);
+    return Errorf("DDS domain {} is in use by another test or benchmark (lock {}/domain-{}.lock)", domain, dir, domain);
   }
   RemoveStaleSharedMemoryPorts(domain);
   return DomainLease(domain, fd);

@@ -1,9 +1,9 @@
 #include "common/dds/node.h"
 
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
 namespace coins::dds {
 
@@ -24,11 +24,10 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
   DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   auto& builtin = qos.wire_protocol().builtin;
-  builtin.discovery_config.leaseDuration = ToDuration(std::chrono::duration_cast<std::chrono::nanoseconds>(
-      std::chrono::duration<double>(options.lease_s)));
-  builtin.discovery_config.leaseDuration_announcementperiod =
-      ToDuration(std::chrono::duration_cast<std::chrono::nanoseconds>(
-          std::chrono::duration<double>(options.lease_s / 4)));
+  builtin.discovery_config.leaseDuration =
+      ToDuration(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(options.lease_s)));
+  builtin.discovery_config.leaseDuration_announcementperiod = ToDuration(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(options.lease_s / 4)));
 
   // transports: shared memory with a large segment, plus UDP (loopback only in local mode)
   qos.transport().use_builtin_transports = false;
@@ -53,10 +52,10 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
     builtin.discovery_config.m_DiscoveryServers.push_back(remote);
   }
 
-  DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(
-      static_cast<DomainId_t>(options.domain), qos);
-  if (!p) return Errorf("dds: cannot create a participant on domain {} (discovery '{}')", options.domain,
-                        options.discovery);
+  DomainParticipant* p =
+      DomainParticipantFactory::get_instance()->create_participant(static_cast<DomainId_t>(options.domain), qos);
+  if (!p)
+    return Errorf("dds: cannot create a participant on domain {} (discovery '{}')", options.domain, options.discovery);
   return std::unique_ptr<Node>(new Node(options, p));
 }
 
@@ -76,8 +75,8 @@ Result<Topic*> Node::GetTopic(const std::string& topic, TypeSupport type) {
   return t;
 }
 
-Result<DataWriter*> Node::CreateWriter(const std::string& topic, TypeSupport type,
-                                       const DataWriterQos& qos, const std::string& partition) {
+Result<DataWriter*> Node::CreateWriter(const std::string& topic, TypeSupport type, const DataWriterQos& qos,
+                                       const std::string& partition) {
   auto t = GetTopic(topic, type);
   if (!t.ok()) return t.status();
   Publisher*& pub = publishers_[partition];
@@ -92,8 +91,8 @@ Result<DataWriter*> Node::CreateWriter(const std::string& topic, TypeSupport typ
   return w;
 }
 
-Result<DataReader*> Node::CreateReader(const std::string& topic, TypeSupport type,
-                                       const DataReaderQos& qos, const std::string& partition) {
+Result<DataReader*> Node::CreateReader(const std::string& topic, TypeSupport type, const DataReaderQos& qos,
+                                       const std::string& partition) {
   auto t = GetTopic(topic, type);
   if (!t.ok()) return t.status();
   Subscriber*& sub = subscribers_[partition];

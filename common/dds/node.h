@@ -139,16 +139,14 @@ class Node {
   Node& operator=(const Node&) = delete;
 
   template <typename PubSubType>
-  Result<Writer<typename PubSubType::type>> MakeWriter(const std::string& topic,
-                                                       const fdds::DataWriterQos& qos,
+  Result<Writer<typename PubSubType::type>> MakeWriter(const std::string& topic, const fdds::DataWriterQos& qos,
                                                        const std::string& partition = "") {
     auto w = CreateWriter(topic, fdds::TypeSupport(new KeySafeType<PubSubType>()), qos, partition);
     if (!w.ok()) return w.status();
     return Writer<typename PubSubType::type>(*w);
   }
   template <typename PubSubType>
-  Result<Reader<typename PubSubType::type>> MakeReader(const std::string& topic,
-                                                       const fdds::DataReaderQos& qos,
+  Result<Reader<typename PubSubType::type>> MakeReader(const std::string& topic, const fdds::DataReaderQos& qos,
                                                        const std::string& partition = "") {
     auto r = CreateReader(topic, fdds::TypeSupport(new KeySafeType<PubSubType>()), qos, partition);
     if (!r.ok()) return r.status();

@@ -73,9 +73,7 @@ DataWriterQos Async(DataWriterQos q) {
 DataWriterQos StatusWriterQos() { return KeepLast(DATAWRITER_QOS_DEFAULT, 4, VOLATILE_DURABILITY_QOS); }
 DataReaderQos StatusReaderQos() { return KeepLast(DATAREADER_QOS_DEFAULT, 4, VOLATILE_DURABILITY_QOS); }
 
-DataWriterQos LatchedWriterQos() {
-  return Async(KeepLast(DATAWRITER_QOS_DEFAULT, 1, TRANSIENT_LOCAL_DURABILITY_QOS));
-}
+DataWriterQos LatchedWriterQos() { return Async(KeepLast(DATAWRITER_QOS_DEFAULT, 1, TRANSIENT_LOCAL_DURABILITY_QOS)); }
 DataReaderQos LatchedReaderQos() { return KeepLast(DATAREADER_QOS_DEFAULT, 1, TRANSIENT_LOCAL_DURABILITY_QOS); }
 
 DataWriterQos CommandWriterQos() { return Async(KeepLast(DATAWRITER_QOS_DEFAULT, 64, VOLATILE_DURABILITY_QOS)); }

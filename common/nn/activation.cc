@@ -8,8 +8,7 @@ Result<Activation> ParseActivation(const std::string& name) {
   if (name == "leaky_relu") return Activation::kLeakyRelu;
   if (name == "tanh") return Activation::kTanh;
   if (name == "sigmoid") return Activation::kSigmoid;
-  return Errorf("unknown activation '{}' (known: identity, relu, leaky_relu, tanh, sigmoid)",
-                name);
+  return Errorf("unknown activation '{}' (known: identity, relu, leaky_relu, tanh, sigmoid)", name);
 }
 
 const char* ActivationName(Activation a) {
@@ -34,8 +33,7 @@ void ApplyActivation(Activation a, Eigen::Ref<Eigen::MatrixXf> z) {
   }
 }
 
-void ActivationBackward(Activation a, const Eigen::Ref<const Eigen::MatrixXf>& out,
-                        Eigen::Ref<Eigen::MatrixXf> grad) {
+void ActivationBackward(Activation a, const Eigen::Ref<const Eigen::MatrixXf>& out, Eigen::Ref<Eigen::MatrixXf> grad) {
   auto g = grad.array();
   auto y = out.array();
   switch (a) {

@@ -24,7 +24,6 @@ const char* ActivationName(Activation a);
 // z <- act(z), in place
 void ApplyActivation(Activation a, Eigen::Ref<Eigen::MatrixXf> z);
 // grad <- grad .* act'(out), in place, where out = act(z) from the forward pass
-void ActivationBackward(Activation a, const Eigen::Ref<const Eigen::MatrixXf>& out,
-                        Eigen::Ref<Eigen::MatrixXf> grad);
+void ActivationBackward(Activation a, const Eigen::Ref<const Eigen::MatrixXf>& out, Eigen::Ref<Eigen::MatrixXf> grad);
 
 }  // namespace coins::nn

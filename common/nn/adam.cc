@@ -32,8 +32,7 @@ float Adam::Step(ParamSet* params) {
   auto g = params->grads.array() * scale;
   m_.array() = b1 * m_.array() + (1.0f - b1) * g;
   v_.array() = b2 * v_.array() + (1.0f - b2) * g.square();
-  params->values.array() -=
-      options_.lr * (m_.array() / c1) / ((v_.array() / c2).sqrt() + options_.eps);
+  params->values.array() -= options_.lr * (m_.array() / c1) / ((v_.array() / c2).sqrt() + options_.eps);
   return norm;
 }
 

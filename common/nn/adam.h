@@ -15,7 +15,7 @@
 namespace coins::nn {
 
 struct AdamOptions {
-  float lr = 1e-4f;        // the detector models' rate in coins-method.md; skills set their own
+  float lr = 1e-4f;  // the detector models' rate in coins-method.md; skills set their own
   float beta1 = 0.9f;
   float beta2 = 0.999f;
   float eps = 1e-8f;

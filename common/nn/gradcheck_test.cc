@@ -29,8 +29,8 @@ double Dot(const Eigen::MatrixXf& a, const Eigen::MatrixXf& b) {
 }
 
 // relative error between analytic gradient g of x and central differences of loss()
-double RelError(float* x, int64_t n, const Eigen::VectorXf& g, const std::function<double()>& loss,
-                float eps, int max_checks = 400) {
+double RelError(float* x, int64_t n, const Eigen::VectorXf& g, const std::function<double()>& loss, float eps,
+                int max_checks = 400) {
   std::mt19937_64 rng(7);
   std::vector<int64_t> idx;
   if (n <= max_checks) {
@@ -72,13 +72,12 @@ TEST_P(MlpGrad, ParamsAndInputMatchFiniteDifferences) {
   EXPECT_LT(RelError(x.data(), x.size(), gx, loss, eps), 1e-2);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Activations, MlpGrad,
-    ::testing::Values(std::pair{Activation::kTanh, Activation::kIdentity},
-                      std::pair{Activation::kSigmoid, Activation::kTanh},
-                      std::pair{Activation::kRelu, Activation::kSigmoid},
-                      std::pair{Activation::kLeakyRelu, Activation::kLeakyRelu},
-                      std::pair{Activation::kRelu, Activation::kRelu}));
+INSTANTIATE_TEST_SUITE_P(Activations, MlpGrad,
+                         ::testing::Values(std::pair{Activation::kTanh, Activation::kIdentity},
+                                           std::pair{Activation::kSigmoid, Activation::kTanh},
+                                           std::pair{Activation::kRelu, Activation::kSigmoid},
+                                           std::pair{Activation::kLeakyRelu, Activation::kLeakyRelu},
+                                           std::pair{Activation::kRelu, Activation::kRelu}));
 
 TEST(MlpGrad, AccumulateAddsGradients) {
   Mlp net({{3, 4, 2}, Activation::kTanh, Activation::kIdentity}, 3);
@@ -105,7 +104,7 @@ TEST(PairNetGrad, ParamsMatchFiniteDifferences) {
   const int batch = 4;
   Eigen::MatrixXf src = Random(3, batch, 1), inst = Random(12, batch, 2), r = Random(3, batch, 3);
   Eigen::MatrixXf mask = Eigen::MatrixXf::Ones(3, batch);
-  mask(1, 0) = 0.0f;  // one absent instance
+  mask(1, 0) = 0.0f;      // one absent instance
   mask.col(2).setZero();  // a sample with no instance at all
   auto loss = [&] { return Dot(net.Forward(src, inst, mask), r); };
   loss();

@@ -1,8 +1,8 @@
 #include "common/nn/heads.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <algorithm>
 
 namespace coins::nn {
 namespace {
@@ -10,8 +10,8 @@ constexpr float kHalfLog2Pi = 0.91893853320467274178f;
 constexpr float kSquashEps = 1e-6f;
 }  // namespace
 
-void GaussianMeanStd(const Eigen::Ref<const Eigen::MatrixXf>& raw, float min_std,
-                     Eigen::MatrixXf* mean, Eigen::MatrixXf* std) {
+void GaussianMeanStd(const Eigen::Ref<const Eigen::MatrixXf>& raw, float min_std, Eigen::MatrixXf* mean,
+                     Eigen::MatrixXf* std) {
   assert(raw.rows() % 2 == 0);
   const Eigen::Index d = raw.rows() / 2;
   *mean = raw.topRows(d).array().tanh().matrix();
@@ -19,8 +19,7 @@ void GaussianMeanStd(const Eigen::Ref<const Eigen::MatrixXf>& raw, float min_std
 }
 
 void GaussianLogLikelihood(const Eigen::Ref<const Eigen::MatrixXf>& raw,
-                           const Eigen::Ref<const Eigen::MatrixXf>& target, float min_std,
-                           Eigen::MatrixXf* loglik) {
+                           const Eigen::Ref<const Eigen::MatrixXf>& target, float min_std, Eigen::MatrixXf* loglik) {
   Eigen::MatrixXf mean, std;
   GaussianMeanStd(raw, min_std, &mean, &std);
   assert(target.rows() == mean.rows() && target.cols() == mean.cols());
@@ -28,10 +27,8 @@ void GaussianLogLikelihood(const Eigen::Ref<const Eigen::MatrixXf>& raw,
   *loglik = (-0.5f * z.square() - std.array().log() - kHalfLog2Pi).colwise().sum().matrix();
 }
 
-float GaussianNllLoss(const Eigen::Ref<const Eigen::MatrixXf>& raw,
-                      const Eigen::Ref<const Eigen::MatrixXf>& target,
-                      const Eigen::Ref<const Eigen::MatrixXf>& weights, float min_std,
-                      Eigen::MatrixXf* draw) {
+float GaussianNllLoss(const Eigen::Ref<const Eigen::MatrixXf>& raw, const Eigen::Ref<const Eigen::MatrixXf>& target,
+                      const Eigen::Ref<const Eigen::MatrixXf>& weights, float min_std, Eigen::MatrixXf* draw) {
   const Eigen::Index d = raw.rows() / 2, batch = raw.cols();
   Eigen::MatrixXf mean, std;
   GaussianMeanStd(raw, min_std, &mean, &std);
@@ -52,8 +49,8 @@ float GaussianNllLoss(const Eigen::Ref<const Eigen::MatrixXf>& raw,
 }
 
 void SquashedGaussian::Sample(const Eigen::Ref<const Eigen::MatrixXf>& raw,
-                              const Eigen::Ref<const Eigen::MatrixXf>& noise,
-                              Eigen::MatrixXf* action, Eigen::MatrixXf* logp) const {
+                              const Eigen::Ref<const Eigen::MatrixXf>& noise, Eigen::MatrixXf* action,
+                              Eigen::MatrixXf* logp) const {
   const Eigen::Index d = raw.rows() / 2;
   assert(noise.rows() == d && noise.cols() == raw.cols());
   Eigen::ArrayXXf log_std =
@@ -61,8 +58,7 @@ void SquashedGaussian::Sample(const Eigen::Ref<const Eigen::MatrixXf>& raw,
   Eigen::ArrayXXf u = raw.topRows(d).array() + log_std.exp() * noise.array();
   Eigen::ArrayXXf a = u.tanh();
   *action = a.matrix();
-  *logp = (-0.5f * noise.array().square() - log_std - kHalfLog2Pi -
-           (1.0f - a.square() + kSquashEps).log())
+  *logp = (-0.5f * noise.array().square() - log_std - kHalfLog2Pi - (1.0f - a.square() + kSquashEps).log())
               .colwise()
               .sum()
               .matrix();
@@ -71,8 +67,7 @@ void SquashedGaussian::Sample(const Eigen::Ref<const Eigen::MatrixXf>& raw,
 void SquashedGaussian::Backward(const Eigen::Ref<const Eigen::MatrixXf>& raw,
                                 const Eigen::Ref<const Eigen::MatrixXf>& noise,
                                 const Eigen::Ref<const Eigen::MatrixXf>& daction,
-                                const Eigen::Ref<const Eigen::MatrixXf>& dlogp,
-                                Eigen::MatrixXf* draw) const {
+                                const Eigen::Ref<const Eigen::MatrixXf>& dlogp, Eigen::MatrixXf* draw) const {
   const Eigen::Index d = raw.rows() / 2, batch = raw.cols();
   Eigen::ArrayXXf t = raw.bottomRows(d).array().tanh();
   Eigen::ArrayXXf log_std = log_std_min + 0.5f * (log_std_max - log_std_min) * (t + 1.0f);
@@ -88,8 +83,7 @@ void SquashedGaussian::Backward(const Eigen::Ref<const Eigen::MatrixXf>& raw,
   draw->bottomRows(d) = (dls * 0.5f * (log_std_max - log_std_min) * (1.0f - t.square())).matrix();
 }
 
-void BlockSoftmax(const Eigen::Ref<const Eigen::MatrixXf>& logits, int atoms,
-                  Eigen::MatrixXf* probs) {
+void BlockSoftmax(const Eigen::Ref<const Eigen::MatrixXf>& logits, int atoms, Eigen::MatrixXf* probs) {
   assert(logits.rows() % atoms == 0);
   probs->resize(logits.rows(), logits.cols());
   const Eigen::Index blocks = logits.rows() / atoms;
@@ -102,20 +96,19 @@ void BlockSoftmax(const Eigen::Ref<const Eigen::MatrixXf>& logits, int atoms,
     }
 }
 
-void ExpectedValues(const Eigen::Ref<const Eigen::MatrixXf>& probs,
-                    const Eigen::Ref<const Eigen::VectorXf>& support, Eigen::MatrixXf* q) {
+void ExpectedValues(const Eigen::Ref<const Eigen::MatrixXf>& probs, const Eigen::Ref<const Eigen::VectorXf>& support,
+                    Eigen::MatrixXf* q) {
   const Eigen::Index atoms = support.size(), actions = probs.rows() / atoms;
   q->resize(actions, probs.cols());
   for (Eigen::Index b = 0; b < probs.cols(); ++b)
-    for (Eigen::Index a = 0; a < actions; ++a)
-      (*q)(a, b) = probs.col(b).segment(a * atoms, atoms).dot(support);
+    for (Eigen::Index a = 0; a < actions; ++a) (*q)(a, b) = probs.col(b).segment(a * atoms, atoms).dot(support);
 }
 
 float CategoricalCrossEntropy(const Eigen::Ref<const Eigen::MatrixXf>& logits, int atoms,
                               const Eigen::Ref<const Eigen::MatrixXf>& actions,
                               const Eigen::Ref<const Eigen::MatrixXf>& target,
-                              const Eigen::Ref<const Eigen::MatrixXf>& weights,
-                              Eigen::MatrixXf* dlogits, Eigen::MatrixXf* per_sample) {
+                              const Eigen::Ref<const Eigen::MatrixXf>& weights, Eigen::MatrixXf* dlogits,
+                              Eigen::MatrixXf* per_sample) {
   const Eigen::Index batch = logits.cols();
   [[maybe_unused]] const int blocks = int(logits.rows() / atoms);
   dlogits->setZero(logits.rows(), batch);
@@ -134,16 +127,15 @@ float CategoricalCrossEntropy(const Eigen::Ref<const Eigen::MatrixXf>& logits, i
     const float w = weights.size() > 0 ? weights(0, b) : 1.0f;
     loss += double(w) * ce;
     if (per_sample) (*per_sample)(0, b) = ce;
-    dlogits->col(b).segment(a * atoms, atoms) =
-        ((logp.exp() * t.sum() - t) * (w / float(batch))).matrix();
+    dlogits->col(b).segment(a * atoms, atoms) = ((logp.exp() * t.sum() - t) * (w / float(batch))).matrix();
   }
   return float(loss / double(batch));
 }
 
 void ProjectDistribution(const Eigen::Ref<const Eigen::MatrixXf>& next_probs,
                          const Eigen::Ref<const Eigen::MatrixXf>& rewards,
-                         const Eigen::Ref<const Eigen::MatrixXf>& discounts, float v_min,
-                         float v_max, Eigen::MatrixXf* target) {
+                         const Eigen::Ref<const Eigen::MatrixXf>& discounts, float v_min, float v_max,
+                         Eigen::MatrixXf* target) {
   const Eigen::Index atoms = next_probs.rows(), batch = next_probs.cols();
   assert(atoms >= 2);
   const float dz = (v_max - v_min) / float(atoms - 1);
@@ -166,8 +158,7 @@ void ProjectDistribution(const Eigen::Ref<const Eigen::MatrixXf>& next_probs,
     }
 }
 
-void DuelingForward(const Eigen::Ref<const Eigen::MatrixXf>& raw, int actions, int atoms,
-                    Eigen::MatrixXf* out) {
+void DuelingForward(const Eigen::Ref<const Eigen::MatrixXf>& raw, int actions, int atoms, Eigen::MatrixXf* out) {
   assert(raw.rows() == (1 + actions) * atoms);
   const Eigen::Index batch = raw.cols();
   out->resize(actions * atoms, batch);
@@ -175,20 +166,17 @@ void DuelingForward(const Eigen::Ref<const Eigen::MatrixXf>& raw, int actions, i
   for (int a = 0; a < actions; ++a) mean += raw.middleRows((1 + a) * atoms, atoms);
   mean /= float(actions);
   for (int a = 0; a < actions; ++a)
-    out->middleRows(a * atoms, atoms) =
-        raw.topRows(atoms) + raw.middleRows((1 + a) * atoms, atoms) - mean;
+    out->middleRows(a * atoms, atoms) = raw.topRows(atoms) + raw.middleRows((1 + a) * atoms, atoms) - mean;
 }
 
-void DuelingBackward(const Eigen::Ref<const Eigen::MatrixXf>& dout, int actions, int atoms,
-                     Eigen::MatrixXf* draw) {
+void DuelingBackward(const Eigen::Ref<const Eigen::MatrixXf>& dout, int actions, int atoms, Eigen::MatrixXf* draw) {
   const Eigen::Index batch = dout.cols();
   draw->resize((1 + actions) * atoms, batch);
   Eigen::MatrixXf sum = Eigen::MatrixXf::Zero(atoms, batch);
   for (int a = 0; a < actions; ++a) sum += dout.middleRows(a * atoms, atoms);
   draw->topRows(atoms) = sum;
   for (int a = 0; a < actions; ++a)
-    draw->middleRows((1 + a) * atoms, atoms) =
-        dout.middleRows(a * atoms, atoms) - sum / float(actions);
+    draw->middleRows((1 + a) * atoms, atoms) = dout.middleRows(a * atoms, atoms) - sum / float(actions);
 }
 
 }  // namespace coins::nn

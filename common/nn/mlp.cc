@@ -6,8 +6,7 @@
 namespace coins::nn {
 
 Status MlpOptions::Validate() const {
-  if (sizes.size() < 2)
-    return Errorf("mlp needs at least an input and an output size, got {} sizes", sizes.size());
+  if (sizes.size() < 2) return Errorf("mlp needs at least an input and an output size, got {} sizes", sizes.size());
   for (size_t i = 0; i < sizes.size(); ++i)
     if (sizes[i] <= 0) return Errorf("mlp size {} is {}, must be positive", i, sizes[i]);
   return Status::Ok();
@@ -44,8 +43,7 @@ const Eigen::MatrixXf& Mlp::Forward(const Eigen::Ref<const Eigen::MatrixXf>& x) 
   return acts_.back();
 }
 
-const Eigen::MatrixXf& Mlp::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout,
-                                     bool input_grad, bool accumulate) {
+const Eigen::MatrixXf& Mlp::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool input_grad, bool accumulate) {
   const int n = num_layers();
   assert(dout.rows() == output_dim() && dout.cols() == acts_[0].cols());
   deltas_[n - 1] = dout;

@@ -21,8 +21,8 @@
 namespace coins::nn {
 
 struct MlpOptions {
-  std::vector<int> sizes;                   // input, hidden..., output (at least 2 entries)
-  Activation hidden = Activation::kRelu;    // after every layer but the last
+  std::vector<int> sizes;                     // input, hidden..., output (at least 2 entries)
+  Activation hidden = Activation::kRelu;      // after every layer but the last
   Activation output = Activation::kIdentity;  // after the last layer
   Status Validate() const;
 };
@@ -58,8 +58,8 @@ class Mlp {
   // dout: output_dim x B, d loss / d output of the last Forward. Writes parameter gradients
   // into params().grads (added to them when accumulate). Returns d loss / d x (input_dim x B)
   // when input_grad, else an empty matrix.
-  const Eigen::MatrixXf& Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout,
-                                  bool input_grad = false, bool accumulate = false);
+  const Eigen::MatrixXf& Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool input_grad = false,
+                                  bool accumulate = false);
 
   // multiply-add count of one forward pass per sample (for FLOP figures: 2 FLOP each)
   int64_t MacsPerSample() const;

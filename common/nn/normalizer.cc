@@ -4,16 +4,13 @@
 
 namespace coins::nn {
 
-Result<Normalizer> Normalizer::FromBounds(std::span<const float> low,
-                                          std::span<const float> high) {
-  if (low.size() != high.size())
-    return Errorf("normalizer: {} low bounds but {} high bounds", low.size(), high.size());
+Result<Normalizer> Normalizer::FromBounds(std::span<const float> low, std::span<const float> high) {
+  if (low.size() != high.size()) return Errorf("normalizer: {} low bounds but {} high bounds", low.size(), high.size());
   Normalizer n;
   n.mid_.resize(Eigen::Index(low.size()));
   n.half_.resize(Eigen::Index(low.size()));
   for (size_t i = 0; i < low.size(); ++i) {
-    if (!(high[i] > low[i]))
-      return Errorf("normalizer: feature {} has high {} <= low {}", i, high[i], low[i]);
+    if (!(high[i] > low[i])) return Errorf("normalizer: feature {} has high {} <= low {}", i, high[i], low[i]);
     n.mid_[Eigen::Index(i)] = 0.5f * (high[i] + low[i]);
     n.half_[Eigen::Index(i)] = 0.5f * (high[i] - low[i]);
   }

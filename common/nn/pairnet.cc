@@ -7,12 +7,11 @@ namespace coins::nn {
 
 Status PairNetOptions::Validate() const {
   if (source_dim < 0 || instance_dim <= 0)
-    return Errorf("pairnet: source_dim {} must be >= 0 and instance_dim {} > 0", source_dim,
-                  instance_dim);
+    return Errorf("pairnet: source_dim {} must be >= 0 and instance_dim {} > 0", source_dim, instance_dim);
   if (max_instances <= 0) return Errorf("pairnet: max_instances {} must be > 0", max_instances);
   if (relative_dim < 0 || relative_dim > source_dim || relative_dim > instance_dim)
-    return Errorf("pairnet: relative_dim {} must be within [0, min(source_dim {}, instance_dim {})]",
-                  relative_dim, source_dim, instance_dim);
+    return Errorf("pairnet: relative_dim {} must be within [0, min(source_dim {}, instance_dim {})]", relative_dim,
+                  source_dim, instance_dim);
   if (point_sizes.empty()) return Errorf("pairnet: point_sizes is empty");
   for (int s : point_sizes)
     if (s <= 0) return Errorf("pairnet: point size {} must be positive", s);
@@ -57,8 +56,7 @@ const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>&
       present_[c] = mask(i, b) > 0.5f;
       if (ds > 0) points.col(c).head(ds) = source.col(b);
       points.col(c).segment(ds, di) = instances.col(b).segment(i * di, di);
-      if (k > 0)
-        points.col(c).tail(k) = source.col(b).head(k) - instances.col(b).segment(i * di, k);
+      if (k > 0) points.col(c).tail(k) = source.col(b).head(k) - instances.col(b).segment(i * di, k);
     }
   }
 

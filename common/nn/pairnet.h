@@ -26,12 +26,12 @@
 namespace coins::nn {
 
 struct PairNetOptions {
-  int source_dim = 0;       // features of s_a (may be 0)
-  int instance_dim = 0;     // features per instance of s_b
-  int max_instances = 1;    // N
-  int relative_dim = 0;     // k: s_a[0:k] - s_b[0:k] appended to each point (k <= both dims)
+  int source_dim = 0;     // features of s_a (may be 0)
+  int instance_dim = 0;   // features per instance of s_b
+  int max_instances = 1;  // N
+  int relative_dim = 0;   // k: s_a[0:k] - s_b[0:k] appended to each point (k <= both dims)
   std::vector<int> point_sizes = {128, 128, 128, 256, 1024};  // the paper's 1-d conv widths
-  int output_dim = 256;     // the dense layer after the pool (the paper's 256 linear layer)
+  int output_dim = 256;  // the dense layer after the pool (the paper's 256 linear layer)
   Activation hidden = Activation::kRelu;
   Activation output = Activation::kIdentity;
   int point_input_dim() const { return source_dim + instance_dim + relative_dim; }
@@ -72,7 +72,7 @@ class PairNet {
   Eigen::MatrixXf out_;                  // output_dim x B
   Eigen::MatrixXf out_delta_;
   Eigen::MatrixXf pooled_grad_;
-  std::vector<uint8_t> present_;         // N x B flags of the last Forward
+  std::vector<uint8_t> present_;  // N x B flags of the last Forward
 };
 
 }  // namespace coins::nn

@@ -32,8 +32,7 @@ void Put(std::vector<uint8_t>* out, T value) {
 // bounds-checked reader over a blob
 class Reader {
  public:
-  Reader(std::span<const uint8_t> bytes, const std::string& source)
-      : bytes_(bytes), source_(source) {}
+  Reader(std::span<const uint8_t> bytes, const std::string& source) : bytes_(bytes), source_(source) {}
   template <typename T>
   Status Get(T* value, const char* what) {
     COINS_RETURN_IF_ERROR(Need(sizeof(T), what));
@@ -52,8 +51,8 @@ class Reader {
  private:
   Status Need(size_t n, const char* what) {
     if (bytes_.size() - pos_ < n)
-      return Errorf("{}: truncated: {} bytes needed for {} at offset {}, only {} left", source_,
-                    n, what, pos_, bytes_.size() - pos_);
+      return Errorf("{}: truncated: {} bytes needed for {} at offset {}, only {} left", source_, n, what, pos_,
+                    bytes_.size() - pos_);
     return Status::Ok();
   }
   std::span<const uint8_t> bytes_;
@@ -108,21 +107,18 @@ std::vector<uint8_t> ToBlob(std::span<const ParamSet* const> sets) {
   return out;
 }
 
-Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
-                const std::string& source) {
+Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets, const std::string& source) {
   // header: magic and version before anything else
   if (blob.size() < 12)
     return Errorf("{}: truncated: {} bytes is shorter than the 12-byte header", source, blob.size());
-  if (std::memcmp(blob.data(), kMagic, 4) != 0)
-    return Errorf("{}: bad magic (not a coins weights file)", source);
+  if (std::memcmp(blob.data(), kMagic, 4) != 0) return Errorf("{}: bad magic (not a coins weights file)", source);
   Reader r(blob, source);
   char magic[4];
   COINS_RETURN_IF_ERROR(r.GetBytes(magic, 4, "magic"));
   uint32_t version = 0, count = 0;
   COINS_RETURN_IF_ERROR(r.Get(&version, "version"));
   if (version != kWeightsVersion)
-    return Errorf("{}: unsupported version {} (this build reads version {})", source, version,
-                  kWeightsVersion);
+    return Errorf("{}: unsupported version {} (this build reads version {})", source, version, kWeightsVersion);
   COINS_RETURN_IF_ERROR(r.Get(&count, "block count"));
   if (blob.size() < 4) return Errorf("{}: truncated", source);
   // checksum over everything but the trailing 4 bytes
@@ -131,7 +127,10 @@ Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
   const bool crc_ok = Crc32(blob.first(blob.size() - 4)) == stored;
 
   // block table
-  struct Entry { std::string name; uint32_t rows, cols; };
+  struct Entry {
+    std::string name;
+    uint32_t rows, cols;
+  };
   std::vector<Entry> entries;
   for (uint32_t i = 0; i < count; ++i) {
     uint16_t len = 0;
@@ -147,12 +146,12 @@ Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
   uint64_t floats = 0;
   COINS_RETURN_IF_ERROR(r.Get(&floats, "float count"));
   if (floats > blob.size() / 4 + 1)
-    return Errorf("{}: truncated: header promises {} floats but the file has {} bytes", source,
-                  floats, blob.size());
+    return Errorf("{}: truncated: header promises {} floats but the file has {} bytes", source, floats, blob.size());
   if (blob.size() - r.pos() != floats * 4 + 4)
-    return Errorf("{}: truncated or oversized: {} bytes after the header, expected {} values + "
-                  "4-byte checksum",
-                  source, blob.size() - r.pos(), floats);
+    return Errorf(
+        "{}: truncated or oversized: {} bytes after the header, expected {} values + "
+        "4-byte checksum",
+        source, blob.size() - r.pos(), floats);
   if (!crc_ok) return Errorf("{}: checksum mismatch (file is corrupt)", source);
 
   // shapes against the destination networks, in order
@@ -163,22 +162,19 @@ Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
     want_floats += p->size();
   }
   if (entries.size() != want_blocks)
-    return Errorf("{}: shape mismatch: {} blocks stored, the network(s) have {}", source,
-                  entries.size(), want_blocks);
+    return Errorf("{}: shape mismatch: {} blocks stored, the network(s) have {}", source, entries.size(), want_blocks);
   size_t i = 0;
   for (const ParamSet* p : sets)
     for (const ParamBlock& b : p->blocks()) {
       const Entry& e = entries[i];
       if (e.name != b.name || int(e.rows) != b.rows || int(e.cols) != b.cols)
-        return Errorf("{}: shape mismatch at block {}: stored {} {}x{}, network has {} {}x{}",
-                      source, i, e.name, e.rows, e.cols, b.name, b.rows, b.cols);
+        return Errorf("{}: shape mismatch at block {}: stored {} {}x{}, network has {} {}x{}", source, i, e.name,
+                      e.rows, e.cols, b.name, b.rows, b.cols);
       ++i;
     }
   if (int64_t(floats) != want_floats)
-    return Errorf("{}: shape mismatch: {} values stored, the network(s) have {}", source, floats,
-                  want_floats);
-  for (ParamSet* p : sets)
-    COINS_RETURN_IF_ERROR(r.GetBytes(p->values.data(), size_t(p->size()) * 4, "values"));
+    return Errorf("{}: shape mismatch: {} values stored, the network(s) have {}", source, floats, want_floats);
+  for (ParamSet* p : sets) COINS_RETURN_IF_ERROR(r.GetBytes(p->values.data(), size_t(p->size()) * 4, "values"));
   return Status::Ok();
 }
 

@@ -29,13 +29,11 @@ uint32_t Crc32(std::span<const uint8_t> bytes);
 
 std::vector<uint8_t> ToBlob(const ParamSet& params);
 // reads a blob into params (whose shapes must match); source names the blob in errors
-Status FromBlob(std::span<const uint8_t> blob, ParamSet* params,
-                const std::string& source = "blob");
+Status FromBlob(std::span<const uint8_t> blob, ParamSet* params, const std::string& source = "blob");
 
 // a set of networks in one blob, in order; loading needs the same networks in the same order
 std::vector<uint8_t> ToBlob(std::span<const ParamSet* const> sets);
-Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets,
-                const std::string& source = "blob");
+Status FromBlob(std::span<const uint8_t> blob, std::span<ParamSet* const> sets, const std::string& source = "blob");
 
 Status SaveWeights(const std::string& path, const ParamSet& params);
 Status LoadWeights(const std::string& path, ParamSet* params);

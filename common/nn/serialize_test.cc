@@ -14,9 +14,7 @@ namespace {
 
 MlpOptions Small() { return {{4, 16, 8, 2}, Activation::kRelu, Activation::kIdentity}; }
 
-bool Contains(const Status& s, const std::string& text) {
-  return s.message().find(text) != std::string::npos;
-}
+bool Contains(const Status& s, const std::string& text) { return s.message().find(text) != std::string::npos; }
 
 TEST(Serialize, Crc32KnownValue) {
   const char* text = "123456789";
@@ -28,8 +26,7 @@ TEST(Serialize, BlobRoundTripIsBitExact) {
   ASSERT_NE(std::memcmp(a.params().values.data(), b.params().values.data(), 4), 0);
   std::vector<uint8_t> blob = ToBlob(a.params());
   ASSERT_TRUE(FromBlob(blob, &b.params()).ok());
-  ASSERT_EQ(std::memcmp(a.params().values.data(), b.params().values.data(),
-                        size_t(a.params().size()) * 4), 0);
+  ASSERT_EQ(std::memcmp(a.params().values.data(), b.params().values.data(), size_t(a.params().size()) * 4), 0);
   Eigen::MatrixXf x = Eigen::MatrixXf::Random(4, 3);
   Eigen::MatrixXf ya = a.Forward(x);
   EXPECT_EQ(ya, b.Forward(x));

@@ -24,9 +24,10 @@ void ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* a
     return;
   }
   for (int i = 0; i < child.dim(); ++i) {
-    const float a = parent.action_kind == ActionKind::kChildOffsets
-                        ? parent.child_offsets[std::min(parent.child_offsets.size() - 1, size_t(std::max(0.0f, action[0])))]
-                        : action[std::min(i, parent.action_dim - 1)];
+    const float a =
+        parent.action_kind == ActionKind::kChildOffsets
+            ? parent.child_offsets[std::min(parent.child_offsets.size() - 1, size_t(std::max(0.0f, action[0])))]
+            : action[std::min(i, parent.action_dim - 1)];
     const float lo = child.low[size_t(i)], hi = child.high[size_t(i)];
     const float now = state[child.offset + child.masked[size_t(i)]];
     child_goal[i] = std::clamp(now + a * parent.child_ratio * (hi - lo), lo, hi);

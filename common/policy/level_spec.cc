@@ -9,8 +9,7 @@ namespace coins::policy {
 namespace {
 
 template <typename Enum, size_t N>
-Result<Enum> EnumByName(const char* what, const std::string& name, const Enum (&all)[N],
-                        const char* (*to_name)(Enum)) {
+Result<Enum> EnumByName(const char* what, const std::string& name, const Enum (&all)[N], const char* (*to_name)(Enum)) {
   for (Enum e : all)
     if (name == to_name(e)) return e;
   return Errorf("unknown {} '{}'", what, name);
@@ -79,7 +78,8 @@ Status LevelSpec::Validate() const {
   if (obs_index.size() != obs_low.size() || obs_index.size() != obs_high.size())
     return bad("obs_index, obs_low and obs_high differ in size");
   for (size_t i = 0; i < obs_index.size(); ++i)
-    if (obs_index[i] < 0 || !(obs_high[i] > obs_low[i])) return bad(fmt::format("observation feature {} is invalid", i));
+    if (obs_index[i] < 0 || !(obs_high[i] > obs_low[i]))
+      return bad(fmt::format("observation feature {} is invalid", i));
   if (relative.size() != relative_scale.size()) return bad("relative and relative_scale differ in size");
   for (size_t k = 0; k < relative.size(); ++k) {
     const auto [a, b] = relative[k];
@@ -87,13 +87,16 @@ Status LevelSpec::Validate() const {
       return bad(fmt::format("relative pair {} is invalid", k));
   }
   if (goal.kind != GoalKind::kNone) {
-    if (goal.mask.size() != size_t(goal.features) || goal.masked.empty()) return bad("goal mask is empty or the wrong size");
+    if (goal.mask.size() != size_t(goal.features) || goal.masked.empty())
+      return bad("goal mask is empty or the wrong size");
     if (goal.scale_low.size() != goal.masked.size() || goal.scale_high.size() != goal.masked.size())
       return bad("goal scale bounds do not match the mask");
     if (goal.kind == GoalKind::kDiscrete && goal.goals.empty()) return bad("discrete goal space without goals");
     for (const auto& g : goal.goals)
-      if (g.size() != goal.masked.size() || !AllFiniteValues(g)) return bad("a discrete goal has the wrong size or a NaN");
-    if (goal.kind == GoalKind::kContinuous && (goal.low.size() != goal.masked.size() || goal.high.size() != goal.masked.size()))
+      if (g.size() != goal.masked.size() || !AllFiniteValues(g))
+        return bad("a discrete goal has the wrong size or a NaN");
+    if (goal.kind == GoalKind::kContinuous &&
+        (goal.low.size() != goal.masked.size() || goal.high.size() != goal.masked.size()))
       return bad("continuous goal bounds do not match the mask");
     if (!(goal.epsilon >= 0) || !std::isfinite(goal.epsilon)) return bad("goal epsilon must be finite and >= 0");
   }
@@ -114,10 +117,18 @@ Status LevelSpec::Validate() const {
 
 nlohmann::json ToJson(const LevelSpec& s) {
   using nlohmann::json;
-  json goal = {{"factor", s.goal.factor},       {"offset", s.goal.offset},       {"features", s.goal.features},
-               {"mask", s.goal.mask},           {"masked", s.goal.masked},       {"scale_low", s.goal.scale_low},
-               {"scale_high", s.goal.scale_high}, {"kind", GoalKindName(s.goal.kind)}, {"goals", s.goal.goals},
-               {"low", s.goal.low},             {"high", s.goal.high},           {"epsilon", s.goal.epsilon},
+  json goal = {{"factor", s.goal.factor},
+               {"offset", s.goal.offset},
+               {"features", s.goal.features},
+               {"mask", s.goal.mask},
+               {"masked", s.goal.masked},
+               {"scale_low", s.goal.scale_low},
+               {"scale_high", s.goal.scale_high},
+               {"kind", GoalKindName(s.goal.kind)},
+               {"goals", s.goal.goals},
+               {"low", s.goal.low},
+               {"high", s.goal.high},
+               {"epsilon", s.goal.epsilon},
                {"norm", s.goal.norm == GoalNorm::kL1 ? "l1" : "linf"}};
   json rel = json::array();
   for (const auto& [a, b] : s.relative) rel.push_back({a, b});
@@ -232,8 +243,7 @@ Result<LevelSpec> ParseLevelSpec(const std::string& text) {
   return LevelSpecFromJson(j);
 }
 
-Result<GoalSpace> MakeGoalSpace(const envs::EnvSpec& spec, const std::string& factor,
-                                const std::vector<float>& mask) {
+Result<GoalSpace> MakeGoalSpace(const envs::EnvSpec& spec, const std::string& factor, const std::vector<float>& mask) {
   const int f = spec.factor_index(factor);
   if (f < 0) return Errorf("env '{}' has no factor '{}'", spec.name, factor);
   const envs::FactorSpec& fs = spec.factors[size_t(f)];

@@ -31,16 +31,16 @@ const char* GoalKindName(GoalKind k);
 
 // The goal space of a skill: values of the masked features of one target factor.
 struct GoalSpace {
-  std::string factor;                      // target factor
-  int offset = 0;                          // its first feature in the state
-  int features = 0;                        // its features
-  std::vector<float> mask;                 // `features` entries, 1 = controlled
-  std::vector<int> masked;                 // the indices with mask 1, in order
+  std::string factor;                        // target factor
+  int offset = 0;                            // its first feature in the state
+  int features = 0;                          // its features
+  std::vector<float> mask;                   // `features` entries, 1 = controlled
+  std::vector<int> masked;                   // the indices with mask 1, in order
   std::vector<float> scale_low, scale_high;  // factor bounds of the masked features
   GoalKind kind = GoalKind::kNone;
-  std::vector<std::vector<float>> goals;   // discrete: one vector of masked values per goal
-  std::vector<float> low, high;            // continuous: bounds of each masked feature
-  float epsilon = 0.0f;                    // reached when the distance <= epsilon (env units)
+  std::vector<std::vector<float>> goals;  // discrete: one vector of masked values per goal
+  std::vector<float> low, high;           // continuous: bounds of each masked feature
+  float epsilon = 0.0f;                   // reached when the distance <= epsilon (env units)
   GoalNorm norm = GoalNorm::kLinf;
 
   int dim() const { return int(masked.size()); }
@@ -59,36 +59,36 @@ enum class ActionKind {
 const char* ActionKindName(ActionKind k);
 
 struct LevelSpec {
-  std::string name;               // "skill/Paddle", "skill/Ball", "task"
-  int level = 0;                  // 1..: skills; the task is the top skill's level + 1
-  std::string source;             // the link's source factor ("Action" for level 1; "" task)
-  GoalSpace goal;                 // kind kNone for the task
+  std::string name;    // "skill/Paddle", "skill/Ball", "task"
+  int level = 0;       // 1..: skills; the task is the top skill's level + 1
+  std::string source;  // the link's source factor ("Action" for level 1; "" task)
+  GoalSpace goal;      // kind kNone for the task
   // observation
-  std::vector<int> obs_index;     // state features, in order
+  std::vector<int> obs_index;  // state features, in order
   std::vector<float> obs_low, obs_high;
   std::vector<std::pair<int, int>> relative;  // positions into obs_index: (source, target)
   std::vector<float> relative_scale;
   // actions
   ActionKind action_kind = ActionKind::kPrimitiveDiscrete;
-  int num_actions = 0;            // discrete kinds
-  int action_dim = 1;             // floats the level's action takes (1 for discrete kinds)
+  int num_actions = 0;                         // discrete kinds
+  int action_dim = 1;                          // floats the level's action takes (1 for discrete kinds)
   std::vector<float> action_low, action_high;  // kPrimitiveContinuous
-  float child_ratio = 0.15f;      // child goals relative to the child's value (coins-method.md)
-  std::vector<float> child_offsets;  // kChildOffsets: the a values, in [-1, 1]
+  float child_ratio = 0.15f;                   // child goals relative to the child's value (coins-method.md)
+  std::vector<float> child_offsets;            // kChildOffsets: the a values, in [-1, 1]
   // temporal structure
-  int timeout = 30;               // env steps before the level's goal times out
-  int decision_period = 0;        // env steps per action at most (0: until the child's goal ends)
+  int timeout = 30;                       // env steps before the level's goal times out
+  int decision_period = 0;                // env steps per action at most (0: until the child's goal ends)
   bool terminate_on_interaction = false;  // any detected link interaction ends the goal
   bool require_interaction = false;       // success needs the link interaction
-  std::string detector;           // weights name of the link's detector ("" when none is needed)
+  std::string detector;                   // weights name of the link's detector ("" when none is needed)
   // network
   std::string algorithm = "dqn";  // dqn | ddpg
   std::vector<int> hidden = {128, 128};
   nn::Activation activation = nn::Activation::kRelu;
-  bool dueling = true;            // dqn
-  int atoms = 51;                 // dqn: distributional when > 1
+  bool dueling = true;  // dqn
+  int atoms = 51;       // dqn: distributional when > 1
   float v_min = -30.0f, v_max = 0.0f;
-  float explore = 0.1f;           // acting: dqn epsilon, ddpg Gaussian noise sigma
+  float explore = 0.1f;  // acting: dqn epsilon, ddpg Gaussian noise sigma
 
   bool is_task() const { return goal.kind == GoalKind::kNone; }
   bool discrete_actions() const;
@@ -104,7 +104,6 @@ Result<LevelSpec> ParseLevelSpec(const std::string& text);
 
 // the goal space of `factor` with `mask`, resolved against spec (offset, bounds); goal values
 // and kind are filled by the caller
-Result<GoalSpace> MakeGoalSpace(const envs::EnvSpec& spec, const std::string& factor,
-                                const std::vector<float>& mask);
+Result<GoalSpace> MakeGoalSpace(const envs::EnvSpec& spec, const std::string& factor, const std::vector<float>& mask);
 
 }  // namespace coins::policy

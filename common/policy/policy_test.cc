@@ -3,11 +3,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/nn/serialize.h"
 #include "common/policy/actions.h"
 #include "common/policy/level_spec.h"
 #include "common/policy/policy_net.h"
 #include "common/policy/weights_msg.h"
-#include "common/nn/serialize.h"
 
 namespace coins::policy {
 namespace {
@@ -67,12 +67,12 @@ TEST(Observation, NormalisesFeaturesRelativePositionsAndGoal) {
   GatherFeatures(s, state, features);
   const float goal[1] = {-1};
   BuildObservation(s, features, goal, obs);
-  EXPECT_FLOAT_EQ(obs[0], 0.0f);            // 42 in [0, 84]
-  EXPECT_FLOAT_EQ(obs[1], 0.5f);            // 63
-  EXPECT_FLOAT_EQ(obs[2], -0.5f);           // 21
-  EXPECT_FLOAT_EQ(obs[3], 0.5f);            // 1 in [-2, 2]
+  EXPECT_FLOAT_EQ(obs[0], 0.0f);   // 42 in [0, 84]
+  EXPECT_FLOAT_EQ(obs[1], 0.5f);   // 63
+  EXPECT_FLOAT_EQ(obs[2], -0.5f);  // 21
+  EXPECT_FLOAT_EQ(obs[3], 0.5f);   // 1 in [-2, 2]
   EXPECT_FLOAT_EQ(obs[4], (63.0f - 21.0f) / 42.0f);
-  EXPECT_FLOAT_EQ(obs[5], -0.5f);           // goal -1 in [-2, 2]
+  EXPECT_FLOAT_EQ(obs[5], -0.5f);  // goal -1 in [-2, 2]
 }
 
 TEST(Actions, ChildGoalsFromOffsetsDiscreteAndContinuous) {

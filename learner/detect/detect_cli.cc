@@ -51,8 +51,8 @@ void Run(CliState& c) {
 
 void AddDetectCommand(CLI::App& app) {
   auto c = std::make_shared<CliState>();
-  CLI::App* cmd = app.add_subcommand(
-      "detect", "train interaction detectors (passive/active Granger models) for one source");
+  CLI::App* cmd =
+      app.add_subcommand("detect", "train interaction detectors (passive/active Granger models) for one source");
   cmd->add_option("--env", c->req.env, "environment name (see `env list`)")->required();
   cmd->add_option("--source", c->req.source, "source factor, e.g. Action, Paddle, Gripper")->required();
   cmd->add_option("--policy", c->req.policy,
@@ -70,17 +70,20 @@ void AddDetectCommand(CLI::App& app) {
       ->check(cli::Integer(0, kMaxSteps));
   cmd->add_option("--holdout", c->req.holdout,
                   "fraction of the data held out of training and scored (0: score the training data)")
-      ->capture_default_str()->check(cli::Finite(0.0, 0.99));
+      ->capture_default_str()
+      ->check(cli::Finite(0.0, 0.99));
   cmd->add_flag("--granger", c->req.granger, "also run the linear Granger F-test on the same data");
-  cmd->add_option("--screen", c->req.screen_alpha,
-                  "linear Granger screen: skip targets with p-value >= this (0: off)")
+  cmd->add_option("--screen", c->req.screen_alpha, "linear Granger screen: skip targets with p-value >= this (0: off)")
       ->check(cli::Finite(0.0, 1.0));
   cmd->add_option("--granger-window", c->req.granger_window, "history window w of the linear test")
-      ->capture_default_str()->check(cli::Integer(1, 1000));
+      ->capture_default_str()
+      ->check(cli::Integer(1, 1000));
   // a wider layer is far beyond what trains here: 8192 x 8192 is already 64 M weights a layer
   cmd->add_option("--hidden", c->hidden, "hidden layer sizes of both models, e.g. 128,128 (each at most 8192)")
-      ->delimiter(',')->check(cli::Integer(1, 8192));
-  cmd->add_flag("--paper-sizes", c->paper_sizes, "the paper's network sizes for the pairs it names (else --hidden or 128,128)");
+      ->delimiter(',')
+      ->check(cli::Integer(1, 8192));
+  cmd->add_flag("--paper-sizes", c->paper_sizes,
+                "the paper's network sizes for the pairs it names (else --hidden or 128,128)");
   // every detector option (the config file's `detector` section), e.g. --passive-steps 2000;
   // the seed is --seed above
   DetectorOptions defaults;

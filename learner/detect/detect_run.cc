@@ -32,11 +32,12 @@ Status CheckDataFits(const DetectRequest& req, const envs::EnvSpec& spec) {
   const double need = 3.0 * per_step * double(req.steps + eval);
   const double have = 0.8 * double(PhysicalMemoryBytes());
   if (have <= 0 || need <= have) return Status::Ok();
-  const std::string what = req.eval ? fmt::format("--steps {} and --eval-steps {}", req.steps, eval)
-                                    : fmt::format("--steps {}", req.steps);
-  return Errorf("{}: the data would take about {} ({} a step of {}, held about three times while training), "
-                "more than 80% of this machine's {} of memory; use fewer steps",
-                what, HumanBytes(need), HumanBytes(per_step), req.env, HumanBytes(double(PhysicalMemoryBytes())));
+  const std::string what =
+      req.eval ? fmt::format("--steps {} and --eval-steps {}", req.steps, eval) : fmt::format("--steps {}", req.steps);
+  return Errorf(
+      "{}: the data would take about {} ({} a step of {}, held about three times while training), "
+      "more than 80% of this machine's {} of memory; use fewer steps",
+      what, HumanBytes(need), HumanBytes(per_step), req.env, HumanBytes(double(PhysicalMemoryBytes())));
 }
 
 }  // namespace
@@ -93,9 +94,13 @@ Result<std::map<std::string, double>> RunGranger(const DetectRequest& req, const
   report["granger"] = nlohmann::json::array();
   for (const GrangerResult& r : g.value()) {
     p_values[r.target] = r.p_value;
-    report["granger"].push_back({{"target", r.target}, {"f_stat", Num(r.f_stat)},
-                                 {"p_value", Num(r.p_value)}, {"df1", r.df1}, {"df2", r.df2},
-                                 {"feature", r.feature}, {"causes", r.causes},
+    report["granger"].push_back({{"target", r.target},
+                                 {"f_stat", Num(r.f_stat)},
+                                 {"p_value", Num(r.p_value)},
+                                 {"df1", r.df1},
+                                 {"df2", r.df2},
+                                 {"feature", r.feature},
+                                 {"causes", r.causes},
                                  {"samples", r.samples}});
   }
   return p_values;
@@ -105,12 +110,19 @@ Result<std::map<std::string, double>> RunGranger(const DetectRequest& req, const
 nlohmann::json ScreenedTarget(const DetectRequest& req, const envs::EnvSpec& spec, const std::string& target,
                               double p_value) {
   const envs::FactorSpec& f = spec.factors[spec.factor_index(target)];
-  nlohmann::json j = {{"target", target}, {"score", 0.0}, {"mg_score", nullptr},
-                      {"interactions", 0}, {"samples", 0}, {"features", f.feature_names},
+  nlohmann::json j = {{"target", target},
+                      {"score", 0.0},
+                      {"mg_score", nullptr},
+                      {"interactions", 0},
+                      {"samples", 0},
+                      {"features", f.feature_names},
                       {"mask", std::vector<int>(f.features, 0)},
                       {"mask_diff", std::vector<float>(f.features, 0.0f)},
-                      {"goal_set", nlohmann::json::array()}, {"goal_kind", "empty"},
-                      {"pass", false}, {"train_seconds", 0.0}, {"score_seconds", 0.0},
+                      {"goal_set", nlohmann::json::array()},
+                      {"goal_kind", "empty"},
+                      {"pass", false},
+                      {"train_seconds", 0.0},
+                      {"score_seconds", 0.0},
                       {"screened", true},
                       {"note", fmt::format("linear Granger p {:.3g} >= --screen {}", p_value, req.screen_alpha)}};
   if (req.eval) {
@@ -149,8 +161,7 @@ void AddScores(const PairScores& s, nlohmann::json& j) {
 }
 
 // the detector against the simulator's labels on the evaluation data
-void AddEvaluation(PairDetector& det, const envs::EnvSpec& spec, const TransitionSet& eval_data,
-                   nlohmann::json& j) {
+void AddEvaluation(PairDetector& det, const envs::EnvSpec& spec, const TransitionSet& eval_data, nlohmann::json& j) {
   auto t3 = std::chrono::steady_clock::now();
   PairEvaluation e = det.Evaluate(spec, eval_data);
   j["eval_seconds"] = Seconds(t3);
@@ -160,8 +171,10 @@ void AddEvaluation(PairDetector& det, const envs::EnvSpec& spec, const Transitio
   j["detected"] = e.detected;
   j["false_positives"] = e.false_positives;
   j["false_negatives"] = e.false_negatives;
-  j["fn_reasons"] = {{"active_low", e.fn_act_low}, {"passive_high", e.fn_pas_high},
-                     {"far", e.fn_far}, {"counterfactual", e.fn_counterfactual}};
+  j["fn_reasons"] = {{"active_low", e.fn_act_low},
+                     {"passive_high", e.fn_pas_high},
+                     {"far", e.fn_far},
+                     {"counterfactual", e.fn_counterfactual}};
 }
 
 // trains the pair's detector on `train`, scores it on `scored` and evaluates it on eval_data
@@ -190,8 +203,10 @@ Result<nlohmann::json> DetectTarget(const DetectRequest& req, const envs::EnvSpe
   j["hidden"] = opts.active_hidden;
   j["train_seconds"] = train_s;
   const PairDetector::TrainStats& ts = det->train_stats();
-  j["train"] = {{"samples", ts.samples}, {"passive_pool", ts.passive_pool},
-                {"upweighted", ts.upweighted}, {"passive_loss", ts.passive_loss},
+  j["train"] = {{"samples", ts.samples},
+                {"passive_pool", ts.passive_pool},
+                {"upweighted", ts.upweighted},
+                {"passive_loss", ts.passive_loss},
                 {"active_loss", ts.active_loss}};
   j["score_seconds"] = score_s;
   if (req.eval) AddEvaluation(*det, spec, eval_data, j);
@@ -228,7 +243,8 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
   // split: train on the head, score on the held-out tail
   const int64_t n_score = int64_t(req.holdout * double(data->size()));
   const TransitionSet train = n_score > 0 ? data->Slice(0, data->size() - n_score) : data->Slice(0, data->size());
-  const TransitionSet scored = n_score > 0 ? data->Slice(data->size() - n_score, data->size()) : data->Slice(0, data->size());
+  const TransitionSet scored =
+      n_score > 0 ? data->Slice(data->size() - n_score, data->size()) : data->Slice(0, data->size());
   report["holdout"] = req.holdout;
   report["scored_states"] = scored.size();
   report["eps_si"] = req.options.eps_si;
@@ -267,13 +283,13 @@ Result<nlohmann::json> RunDetect(const DetectRequest& req) {
 }
 
 std::string FormatDetectTable(const nlohmann::json& r) {
-  std::string out = fmt::format("env {}  source {}  policy {}  steps {}  (collected in {:.1f} s)\n",
-                                r["env"].get<std::string>(), r["source"].get<std::string>(),
-                                r["policy"].get<std::string>(), r["steps"].get<int64_t>(),
-                                r["collect_seconds"].get<double>());
+  std::string out =
+      fmt::format("env {}  source {}  policy {}  steps {}  (collected in {:.1f} s)\n", r["env"].get<std::string>(),
+                  r["source"].get<std::string>(), r["policy"].get<std::string>(), r["steps"].get<int64_t>(),
+                  r["collect_seconds"].get<double>());
   const bool eval = r.contains("eval_states");
-  out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n", "target", "Sc_I",
-                     "MG", "N_int", "pass", "mask", "goal kind", "goal set");
+  out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n", "target", "Sc_I", "MG", "N_int", "pass",
+                     "mask", "goal kind", "goal set");
   for (const auto& t : r["targets"]) {
     std::string mask;
     const auto& names = t["features"];
@@ -283,30 +299,32 @@ std::string FormatDetectTable(const nlohmann::json& r) {
       mask += names[k].get<std::string>();
     }
     if (mask.empty()) mask.push_back('-');
-    auto num = [](const nlohmann::json& v) { return v.is_null() ? std::string("nan") : fmt::format("{:.3f}", v.get<double>()); };
-    out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n",
-                       t["target"].get<std::string>(), num(t["score"]), num(t["mg_score"]),
-                       t["interactions"].get<int64_t>(), t["pass"].get<bool>() ? "PASS" : "fail",
-                       mask, t["goal_kind"].get<std::string>(), t["goal_set"].dump());
+    auto num = [](const nlohmann::json& v) {
+      return v.is_null() ? std::string("nan") : fmt::format("{:.3f}", v.get<double>());
+    };
+    out += fmt::format("{:<10} {:>9} {:>9} {:>8} {:<6}  {:<22} {:<11} {}\n", t["target"].get<std::string>(),
+                       num(t["score"]), num(t["mg_score"]), t["interactions"].get<int64_t>(),
+                       t["pass"].get<bool>() ? "PASS" : "fail", mask, t["goal_kind"].get<std::string>(),
+                       t["goal_set"].dump());
     out += fmt::format("{:<10} train {:.1f} s, score {:.2f} s\n", "", t["train_seconds"].get<double>(),
                        t["score_seconds"].get<double>());
     if (t.contains("note")) out += fmt::format("{:<10} note: {}\n", "", t["note"].get<std::string>());
     if (eval) {
-      out += fmt::format("{:<10} eval: fp/state {}  fn/interaction {}  ({} labelled, {} detected; misses: {})\n",
-                         "", t["fp_per_state"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fp_per_state"].get<double>()),
-                         t["fn_per_interaction"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fn_per_interaction"].get<double>()),
-                         t["true_interactions"].get<int64_t>(), t["detected"].get<int64_t>(),
-                         t["fn_reasons"].dump());
+      out += fmt::format(
+          "{:<10} eval: fp/state {}  fn/interaction {}  ({} labelled, {} detected; misses: {})\n", "",
+          t["fp_per_state"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fp_per_state"].get<double>()),
+          t["fn_per_interaction"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fn_per_interaction"].get<double>()),
+          t["true_interactions"].get<int64_t>(), t["detected"].get<int64_t>(), t["fn_reasons"].dump());
     }
   }
   if (r.contains("granger")) {
     out += "linear Granger test (F-test, alpha 1e-3):\n";
     for (const auto& g : r["granger"]) {
-      out += fmt::format("{:<10} F {:>12.4g}  p {:>10.3g}  causes {}  (feature {}, n {})\n",
-                         g["target"].get<std::string>(), g["f_stat"].is_null() ? NAN : g["f_stat"].get<double>(),
-                         g["p_value"].is_null() ? NAN : g["p_value"].get<double>(),
-                         g["causes"].get<bool>() ? "yes" : "no", g["feature"].get<std::string>(),
-                         g["samples"].get<int64_t>());
+      out +=
+          fmt::format("{:<10} F {:>12.4g}  p {:>10.3g}  causes {}  (feature {}, n {})\n",
+                      g["target"].get<std::string>(), g["f_stat"].is_null() ? NAN : g["f_stat"].get<double>(),
+                      g["p_value"].is_null() ? NAN : g["p_value"].get<double>(), g["causes"].get<bool>() ? "yes" : "no",
+                      g["feature"].get<std::string>(), g["samples"].get<int64_t>());
     }
   }
   return out;

@@ -27,7 +27,7 @@ struct DetectRequest {
   uint64_t seed = 1;
   std::vector<std::string> targets;  // empty: every uncontrolled target
   bool eval = false;
-  int64_t eval_steps = 0;            // 0: same as steps
+  int64_t eval_steps = 0;  // 0: same as steps
   bool granger = false;
   // > 0: run the linear Granger test first and skip the neural models of targets whose p-value
   // is >= screen_alpha (a fast screen; it can drop true links, see README)
@@ -37,7 +37,7 @@ struct DetectRequest {
   // computed on it (0: train and score on all the data, as the paper does)
   double holdout = 0.2;
   DetectorOptions options;
-  bool paper_sizes = false;          // the paper's network sizes for the pairs it names
+  bool paper_sizes = false;  // the paper's network sizes for the pairs it names
   Status Validate() const;
 };
 

@@ -78,8 +78,7 @@ TEST(PairDetector, AStopRequestEndsTrainingWithANotReadyError) {
   o.passive_steps = o.active_steps = 10'000'000;  // hours of training unless stopped
   int asked = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  Result<PairDetector> det =
-      PairDetector::Train((*env)->spec(), *d, "Paddle", "Ball", o, [&] { return ++asked > 3; });
+  Result<PairDetector> det = PairDetector::Train((*env)->spec(), *d, "Paddle", "Ball", o, [&] { return ++asked > 3; });
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(20));
   ASSERT_FALSE(det.ok());
   EXPECT_EQ(det.status().message(), "not ready: stopped while training the Paddle->Ball models");
@@ -102,16 +101,15 @@ std::string RunCli(std::vector<std::string> args) {
 
 TEST(DetectCli, BadFlagsAreErrorsNamingTheFlag) {
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action"}).find("--steps"), std::string::npos);
-  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "-3"}).find("--steps"),
-            std::string::npos);
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "-3"}).find("--steps"), std::string::npos);
   EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "abc"})
                 .find("--steps: must be an integer in [1, 2147483647], got 'abc'"),
             std::string::npos);
-  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "9", "--lr", "0"})
-                .find("--lr"),
+  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "9", "--lr", "0"}).find("--lr"),
             std::string::npos);
-  EXPECT_NE(RunCli({"--env", "breakout", "--source", "Action", "--steps", "10", "--mask-rule",
-                    "odd"}).find("--mask-rule"), std::string::npos);
+  EXPECT_NE(
+      RunCli({"--env", "breakout", "--source", "Action", "--steps", "10", "--mask-rule", "odd"}).find("--mask-rule"),
+      std::string::npos);
   // runtime errors (unknown env or factor) exit 1 after one "error:" line
   testing::internal::CaptureStderr();
   const std::string r1 = RunCli({"--env", "nope", "--source", "Action", "--steps", "10"});
@@ -131,15 +129,17 @@ TEST(DetectCli, HugeOrNonFiniteNumbersAreOneLineErrorsNotAborts) {
     return args;
   };
   // flag checks: the value is named, nothing is clamped
-  EXPECT_NE(RunCli(with({"--steps", "2147483648"})).find("--steps: must be an integer in [1, 2147483647], got '2147483648'"),
-            std::string::npos);
+  EXPECT_NE(
+      RunCli(with({"--steps", "2147483648"})).find("--steps: must be an integer in [1, 2147483647], got '2147483648'"),
+      std::string::npos);
   EXPECT_NE(RunCli(with({"--steps", "18446744073709551616"})).find("got '18446744073709551616'"), std::string::npos);
   EXPECT_NE(RunCli(with({"--steps", "10", "--seed", "18446744073709551616"}))
                 .find("--seed: must be an integer in [0, 18446744073709551615], got '18446744073709551616'"),
             std::string::npos);
   EXPECT_NE(RunCli(with({"--steps", "10", "--seed", "-1"})).find("--seed"), std::string::npos);
-  EXPECT_NE(RunCli(with({"--steps", "10", "--hidden", "128,100000000"})).find("--hidden: must be an integer in [1, 8192]"),
-            std::string::npos);
+  EXPECT_NE(
+      RunCli(with({"--steps", "10", "--hidden", "128,100000000"})).find("--hidden: must be an integer in [1, 8192]"),
+      std::string::npos);
   for (const char* flag : {"--eps-act", "--eps-pas", "--eps-si"})
     for (const char* value : {"nan", "inf", "-inf", "abc"})
       EXPECT_NE(RunCli(with({"--steps", "10", flag, value})).find(std::string(flag) + ": must be a finite number"),
@@ -155,7 +155,8 @@ TEST(DetectCli, HugeOrNonFiniteNumbersAreOneLineErrorsNotAborts) {
   EXPECT_NE(big.find("RuntimeError"), std::string::npos) << big;
   EXPECT_NE(eval.find("RuntimeError"), std::string::npos) << eval;
   EXPECT_NE(err.find("coins detect: --steps 100000000: the data would take about"), std::string::npos) << err;
-  EXPECT_NE(err.find("coins detect: --steps 1000 and --eval-steps 2147483647: the data would take about"), std::string::npos)
+  EXPECT_NE(err.find("coins detect: --steps 1000 and --eval-steps 2147483647: the data would take about"),
+            std::string::npos)
       << err;
   EXPECT_NE(err.find("of memory; use fewer steps"), std::string::npos) << err;
 }
@@ -175,17 +176,16 @@ TEST(DetectCli, APolicyFileWithNonNumbersIsAnErrorNamingTheLine) {
 
 TEST(DetectCli, JsonHasTheDocumentedKeys) {
   testing::internal::CaptureStdout();
-  const std::string r = RunCli({"--env", "breakout", "--source", "Action", "--targets", "Paddle",
-                                "--steps", "3000", "--passive-steps", "200",
-                                "--passive-hard-steps", "200", "--active-steps", "300", "--eval",
-                                "--eval-steps", "1000", "--granger", "--json"});
+  const std::string r = RunCli({"--env", "breakout", "--source", "Action", "--targets", "Paddle", "--steps", "3000",
+                                "--passive-steps", "200", "--passive-hard-steps", "200", "--active-steps", "300",
+                                "--eval", "--eval-steps", "1000", "--granger", "--json"});
   const std::string out = testing::internal::GetCapturedStdout();
   ASSERT_EQ(r, "");
   const nlohmann::json j = nlohmann::json::parse(out);
   ASSERT_EQ(j["targets"].size(), 1u);
   const auto& t = j["targets"][0];
-  for (const char* key : {"target", "score", "mg_score", "interactions", "mask", "goal_set",
-                          "goal_kind", "pass", "fp_per_state", "fn_per_interaction"}) {
+  for (const char* key : {"target", "score", "mg_score", "interactions", "mask", "goal_set", "goal_kind", "pass",
+                          "fp_per_state", "fn_per_interaction"}) {
     EXPECT_TRUE(t.contains(key)) << key;
   }
   EXPECT_EQ(t["target"], "Paddle");
@@ -195,8 +195,8 @@ TEST(DetectCli, JsonHasTheDocumentedKeys) {
 
   // the linear screen skips a target it finds unrelated (Action->Ball: p about 1)
   testing::internal::CaptureStdout();
-  ASSERT_EQ(RunCli({"--env", "breakout", "--source", "Action", "--targets", "Ball", "--steps",
-                    "3000", "--screen", "0.5", "--json"}),
+  ASSERT_EQ(RunCli({"--env", "breakout", "--source", "Action", "--targets", "Ball", "--steps", "3000", "--screen",
+                    "0.5", "--json"}),
             "");
   const nlohmann::json k = nlohmann::json::parse(testing::internal::GetCapturedStdout());
   EXPECT_EQ(k["targets"][0]["screened"], true);

@@ -6,25 +6,23 @@
 #include <set>
 #include <utility>
 
-#include "detector/granger.h"
 #include "actors/collect.h"
 #include "actors/envs/env.h"
+#include "detector/granger.h"
 #include "detector/interaction.h"
 #include "learner/detect/detector_test_data.h"
 
 namespace coins::detector {
 namespace {
 
-TransitionSet Collect(const std::string& env_name, const std::string& policy, int64_t steps,
-                      uint64_t seed) {
+TransitionSet Collect(const std::string& env_name, const std::string& policy, int64_t steps, uint64_t seed) {
   return testing::CollectFrom(env_name, policy, steps, seed);
 }
 
 DetectorOptions FastOptions() { return testing::FastOptionsFor("breakout"); }
 
-PairScores TrainAndScore(const envs::EnvSpec& spec, const TransitionSet& train,
-                         const TransitionSet& scored, const std::string& source,
-                         const std::string& target, const DetectorOptions& o) {
+PairScores TrainAndScore(const envs::EnvSpec& spec, const TransitionSet& train, const TransitionSet& scored,
+                         const std::string& source, const std::string& target, const DetectorOptions& o) {
   Result<PairDetector> det = PairDetector::Train(spec, train, source, target, o);
   EXPECT_TRUE(det.ok()) << det.status().message();
   return det->Score(scored);
@@ -40,7 +38,7 @@ TEST(BreakoutDetector, ActionPaddlePassesActionBallAndBlockFail) {
   const PairScores paddle = TrainAndScore(spec, train, scored, "Action", "Paddle", o);
   EXPECT_TRUE(paddle.pass) << "Sc_I " << paddle.score;
   EXPECT_GT(paddle.score, o.eps_si);
-  EXPECT_GT(paddle.interactions, 1000);  // the paddle moves on about half of the steps
+  EXPECT_GT(paddle.interactions, 1000);                       // the paddle moves on about half of the steps
   EXPECT_EQ(paddle.mask, (std::vector<int>{0, 1, 0, 0, 0}));  // only x
   EXPECT_EQ(paddle.goals.kind, GoalSet::Kind::kContinuous);
   ASSERT_EQ(paddle.goals.low.size(), 1u);
@@ -69,7 +67,7 @@ TEST(BreakoutDetector, PaddleBallPassesWithVelocityMaskAndTheFourBounces) {
 
   const PairScores s = det->Score(fresh);
   EXPECT_TRUE(s.pass) << "Sc_I " << s.score;
-  EXPECT_GT(s.score, 100.0);  // a bounce is far outside the passive model's prediction
+  EXPECT_GT(s.score, 100.0);                             // a bounce is far outside the passive model's prediction
   EXPECT_EQ(s.mask, (std::vector<int>{0, 0, 1, 1, 0}));  // vy, vx
   ASSERT_EQ(s.goals.kind, GoalSet::Kind::kDiscrete);
   std::set<std::pair<float, float>> goals;

@@ -19,8 +19,8 @@ DetectorOptions FastOptions() { return testing::FastOptionsFor("pushing"); }
 TEST(PushingDetector, ActionGripperPassesWithContinuousXYZ) {
   auto env = envs::MakeEnv("pushing");
   const TransitionSet data = Collect("random", 5000, 1);
-  Result<PairDetector> det = PairDetector::Train((*env)->spec(), data.Slice(0, 4000), "Action",
-                                                 "Gripper", FastOptions());
+  Result<PairDetector> det =
+      PairDetector::Train((*env)->spec(), data.Slice(0, 4000), "Action", "Gripper", FastOptions());
   ASSERT_TRUE(det.ok()) << det.status().message();
   const PairScores s = det->Score(data.Slice(4000, 5000));
   EXPECT_TRUE(s.pass) << "Sc_I " << s.score;
@@ -34,8 +34,8 @@ TEST(PushingDetector, ActionGripperPassesWithContinuousXYZ) {
 TEST(PushingDetector, GripperBlockPassesWithMaskXY) {
   auto env = envs::MakeEnv("pushing");
   const TransitionSet data = Collect("goals", 24000, 1);
-  Result<PairDetector> det = PairDetector::Train((*env)->spec(), data.Slice(0, 16000), "Gripper",
-                                                 "Block", FastOptions());
+  Result<PairDetector> det =
+      PairDetector::Train((*env)->spec(), data.Slice(0, 16000), "Gripper", "Block", FastOptions());
   ASSERT_TRUE(det.ok()) << det.status().message();
   const PairScores s = det->Score(data.Slice(16000, 24000));
   EXPECT_TRUE(s.pass) << "Sc_I " << s.score << " N_int " << s.interactions;
@@ -47,8 +47,8 @@ TEST(PushingDetector, GripperBlockPassesWithMaskXY) {
   EXPECT_EQ(s.goals.features, (std::vector<int>{0, 1}));
 
   // Obstacles never move: nothing to model, no link
-  Result<PairDetector> obs = PairDetector::Train((*env)->spec(), data.Slice(0, 2000), "Gripper",
-                                                 "Obstacle", FastOptions());
+  Result<PairDetector> obs =
+      PairDetector::Train((*env)->spec(), data.Slice(0, 2000), "Gripper", "Obstacle", FastOptions());
   ASSERT_TRUE(obs.ok());
   EXPECT_FALSE(obs->trained());
   EXPECT_FALSE(obs->Score(data.Slice(2000, 3000)).pass);

@@ -14,8 +14,7 @@
 
 namespace coins::detector::testing {
 
-inline TransitionSet CollectFrom(const std::string& env_name, const std::string& policy, int64_t steps,
-                                 uint64_t seed) {
+inline TransitionSet CollectFrom(const std::string& env_name, const std::string& policy, int64_t steps, uint64_t seed) {
   Result<std::unique_ptr<envs::Env>> env = envs::MakeEnv(env_name);
   EXPECT_TRUE(env.ok());
   CollectOptions co;

@@ -44,8 +44,9 @@ msg::InteractionScore ToScoreMessage(const detector::PairScores& s, const envs::
   const bool single = f >= 0 && !env.factors[size_t(f)].multi_instance && env.factors[size_t(f)].instances == 1;
   m.eligible(single && s.goals.kind != detector::GoalSet::Kind::kEmpty);
   m.note(!s.note.empty() ? s.note
-                         : !single ? "a multi-instance class: scored, but a skill reaches goals of one factor"
-                                   : s.goals.kind == detector::GoalSet::Kind::kEmpty ? "no goal set" : "");
+         : !single       ? "a multi-instance class: scored, but a skill reaches goals of one factor"
+         : s.goals.kind == detector::GoalSet::Kind::kEmpty ? "no goal set"
+                                                           : "");
   return m;
 }
 
@@ -56,7 +57,8 @@ Result<PairData> SamplePairData(SampleSource* source, const detector::PairSpace&
   spec.n_step = 1;
   for (int g : space.gather) spec.features.push_back(uint16_t(g));
   const int adim = space.sub.action.dim;
-  PairData d{detector::TransitionSet(space.sub.state_dim(), adim), detector::TransitionSet(space.sub.state_dim(), adim)};
+  PairData d{detector::TransitionSet(space.sub.state_dim(), adim),
+             detector::TransitionSet(space.sub.state_dim(), adim)};
   std::unordered_set<uint64_t> seen;
   SampleColumns c;
   const int64_t draws = 2 * wanted;
@@ -69,8 +71,8 @@ Result<PairData> SamplePairData(SampleSource* source, const detector::PairSpace&
     for (uint32_t i = 0; i < c.n; ++i) {
       if (!seen.insert(c.key[i]).second) continue;
       detector::TransitionSet& into = SplitMix64Mix(c.key[i]) % 1000 < cut ? d.held_out : d.train;
-      into.Append({c.state.data() + i * F, F}, {c.action.data() + i * A, size_t(adim)}, {c.next_state.data() + i * F, F},
-                  c.interactions[i], false);
+      into.Append({c.state.data() + i * F, F}, {c.action.data() + i * A, size_t(adim)},
+                  {c.next_state.data() + i * F, F}, c.interactions[i], false);
     }
     o.tick();
   }
@@ -89,8 +91,8 @@ Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const e
     if (StopRequested()) return Errorf("not ready: stopping before {}->{}", source_factor, target);
     auto space = detector::MakePairSpace(env, source_factor, target);
     if (!space.ok()) return space.status();
-    const int64_t wanted = std::min({rows_available, o.max_samples,
-                                     o.max_floats / int64_t(std::max<size_t>(space->gather.size(), 1))});
+    const int64_t wanted =
+        std::min({rows_available, o.max_samples, o.max_floats / int64_t(std::max<size_t>(space->gather.size(), 1))});
     auto data = SamplePairData(source, *space, std::max<int64_t>(wanted, 2), o);
     if (!data.ok()) return data.status().WithContext(source_factor + "->" + target);
     const auto start = std::chrono::steady_clock::now();

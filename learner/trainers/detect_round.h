@@ -21,17 +21,17 @@
 namespace coins {
 
 struct DetectRoundOptions {
-  int64_t max_samples = 200000;     // per target
-  int64_t max_floats = 20000000;    // per target: samples x compact state floats
+  int64_t max_samples = 200000;   // per target
+  int64_t max_floats = 20000000;  // per target: samples x compact state floats
   double holdout = 0.2;
-  uint32_t level_mask = 0b11;       // primitive rows: random steps and first-skill steps
+  uint32_t level_mask = 0b11;  // primitive rows: random steps and first-skill steps
   detector::DetectorOptions detector;
   std::function<void()> tick = [] {};  // called between pieces of work
 };
 
 struct DetectedTarget {
-  msg::InteractionScore score;      // as published
-  detector::DetectorSpec spec;      // the trained detector, when a model was trained
+  msg::InteractionScore score;  // as published
+  detector::DetectorSpec spec;  // the trained detector, when a model was trained
   std::unique_ptr<detector::PairDetector> detector;
 };
 

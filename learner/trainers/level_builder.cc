@@ -29,7 +29,9 @@ void AddRelative(const envs::EnvSpec& env, int fa, int fb, LevelSpec* s) {
   if (fa < 0 || fb < 0) return;
   const envs::FactorSpec &a = env.factors[size_t(fa)], &b = env.factors[size_t(fb)];
   const int oa = env.factor_offset(fa), ob = env.factor_offset(fb);
-  auto pos = [&](int full) { return int(std::find(s->obs_index.begin(), s->obs_index.end(), full) - s->obs_index.begin()); };
+  auto pos = [&](int full) {
+    return int(std::find(s->obs_index.begin(), s->obs_index.end(), full) - s->obs_index.begin());
+  };
   for (int i = 0; i < a.features; ++i) {
     const std::string& n = a.feature_names[size_t(i)];
     if (n != "x" && n != "y" && n != "z") continue;
@@ -88,7 +90,8 @@ Status SetGoalSpace(const envs::EnvSpec& env, const msg::LinkSpec& link, const L
       return Errorf("link {}->{}: discrete goal set of {} values for {} masked features", link.source(), link.target(),
                     set.size(), d);
     s->goal.kind = GoalKind::kDiscrete;
-    for (size_t i = 0; i < set.size(); i += size_t(d)) s->goal.goals.emplace_back(set.begin() + long(i), set.begin() + long(i) + d);
+    for (size_t i = 0; i < set.size(); i += size_t(d))
+      s->goal.goals.emplace_back(set.begin() + long(i), set.begin() + long(i) + d);
     s->goal.epsilon = 1e-3f * half;  // discrete goals are met exactly
     s->goal.norm = GoalNorm::kLinf;
     return Status::Ok();
@@ -106,8 +109,8 @@ Status SetGoalSpace(const envs::EnvSpec& env, const msg::LinkSpec& link, const L
 
 }  // namespace
 
-Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& link, int level,
-                                 const LevelSpec* child, const LevelTrainOptions& o) {
+Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& link, int level, const LevelSpec* child,
+                                 const LevelTrainOptions& o) {
   LevelSpec s;
   s.name = "skill/" + link.target();
   s.level = level;

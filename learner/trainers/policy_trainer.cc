@@ -45,8 +45,8 @@ PolicyTrainer::PolicyTrainer(policy::LevelSpec spec, LevelTrainOptions options)
 
 PolicyTrainer::~PolicyTrainer() = default;
 
-Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::LevelSpec& spec,
-                                                             const LevelTrainOptions& o, uint64_t seed) {
+Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::LevelSpec& spec, const LevelTrainOptions& o,
+                                                             uint64_t seed) {
   COINS_RETURN_IF_ERROR(spec.Validate());
   std::unique_ptr<PolicyTrainer> t(new PolicyTrainer(spec, o));
   if (spec.algorithm == "dqn") {
@@ -137,8 +137,7 @@ Result<TrainStep> PolicyTrainer::Update(SampleSource* source) {
     const rl::DdpgStats s = ddpg_->Update(batch_, &priorities_);
     step.loss = s.critic_loss;
   }
-  if (options_.prioritized)
-    source->UpdatePriorities(batch_.keys, {priorities_.data(), size_t(priorities_.size())});
+  if (options_.prioritized) source->UpdatePriorities(batch_.keys, {priorities_.data(), size_t(priorities_.size())});
   return step;
 }
 

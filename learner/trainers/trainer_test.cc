@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "actors/envs/env.h"
-#include "common/policy/policy_net.h"
 #include "common/nn/serialize.h"
+#include "common/policy/policy_net.h"
 #include "learner/trainers/level_builder.h"
 #include "learner/trainers/policy_trainer.h"
 
@@ -48,7 +48,8 @@ TEST(LevelBuilder, BreakoutChainLevels) {
   EXPECT_EQ(ball->action_kind, policy::ActionKind::kChildOffsets);
   // paddle goals 0, 2, 4 and 6 px either way of the paddle (a bounce's angle is set by 2 px zones)
   ASSERT_EQ(ball->num_actions, 7);
-  for (int i = 0; i < 7; ++i) EXPECT_NEAR(ball->child_offsets[size_t(i)] * ball->child_ratio * 68.0f, 2.0f * float(i - 3), 0.2f);
+  for (int i = 0; i < 7; ++i)
+    EXPECT_NEAR(ball->child_offsets[size_t(i)] * ball->child_ratio * 68.0f, 2.0f * float(i - 3), 0.2f);
   EXPECT_EQ(ball->goal.goals.size(), 4u);
   EXPECT_TRUE(ball->terminate_on_interaction && ball->require_interaction);  // a bounce is rare
   EXPECT_EQ(ball->detector, "detector/Paddle->Ball");

@@ -22,11 +22,28 @@ struct ReplayCluster {
   std::unique_ptr<StatusCollector> collector;
 
   std::vector<std::string> Common(const std::string& binary, const std::string& name, int id) {
-    return {Bin(binary), "--name", name, "--id", std::to_string(id), "--quiet-config",
-            "--set", "dds.domain=" + std::to_string(domain), "--set", "run.shards=" + std::to_string(shards_n),
-            "--set", "run.actors=" + std::to_string(actors_n), "--set", "replay.capacity=400000",
-            "--set", "replay.capacity_mb=64", "--set", "replay.status_period_s=0.2",
-            "--set", "actor.status_period_s=0.2", "--stats-out", (dir / (name + ".json")).string()};
+    return {Bin(binary),
+            "--name",
+            name,
+            "--id",
+            std::to_string(id),
+            "--quiet-config",
+            "--set",
+            "dds.domain=" + std::to_string(domain),
+            "--set",
+            "run.shards=" + std::to_string(shards_n),
+            "--set",
+            "run.actors=" + std::to_string(actors_n),
+            "--set",
+            "replay.capacity=400000",
+            "--set",
+            "replay.capacity_mb=64",
+            "--set",
+            "replay.status_period_s=0.2",
+            "--set",
+            "actor.status_period_s=0.2",
+            "--stats-out",
+            (dir / (name + ".json")).string()};
   }
   // starts shard k (extra: more flags); replaces a dead one in place
   void StartShard(int k, std::vector<std::string> extra = {}) {
@@ -35,8 +52,10 @@ struct ReplayCluster {
     argv.insert(argv.end(), extra.begin(), extra.end());
     auto c = ChildProcess::Spawn(name, argv, (dir / (name + ".log")).string());
     ASSERT_TRUE(c.ok()) << c.status().message();
-    if (size_t(k) < shards.size()) shards[size_t(k)] = std::move(*c);
-    else shards.push_back(std::move(*c));
+    if (size_t(k) < shards.size())
+      shards[size_t(k)] = std::move(*c);
+    else
+      shards.push_back(std::move(*c));
   }
   void StartShards(std::vector<std::string> extra = {}) {
     for (int k = 0; k < shards_n; ++k) StartShard(k, extra);
@@ -47,9 +66,9 @@ struct ReplayCluster {
       std::string name = "actor-" + std::to_string(i);
       auto argv = Common("coins-actor", name, i);
       // no orchestrator here: random actions, no chain pacing
-      argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=" + std::to_string(steps),
-                               "--set", "actor.batch_rows=64",
-                               "--set", "actor.envs=2", "--set", "run.seed=" + std::to_string(11 + i)});
+      argv.insert(argv.end(),
+                  {"--set", "actor.follow_chain=false", "--set", "actor.steps=" + std::to_string(steps), "--set",
+                   "actor.batch_rows=64", "--set", "actor.envs=2", "--set", "run.seed=" + std::to_string(11 + i)});
       if (steps == 0) argv.insert(argv.end(), {"--set", "run.steps=0"});
       auto c = ChildProcess::Spawn(name, argv, (dir / (name + ".log")).string());
       ASSERT_TRUE(c.ok()) << c.status().message();

@@ -34,8 +34,9 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   c.actors_n = 1;
   fs::path snaps = c.dir / "snapshots";
   // room for everything the actor sends during the test: no eviction, so checksums add up
-  std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string(), "--set",
-                                    "replay.capacity=3000000", "--set", "replay.capacity_mb=400"};
+  std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string(),
+                                    "--set", "replay.capacity=3000000",
+                                    "--set", "replay.capacity_mb=400"};
   c.StartShards(flags);
   c.StartActors(0);
   c.Join();
@@ -67,10 +68,12 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   // shared memory): then the actor is restarted once, as a supervisor restarts a stuck child,
   // and the shard must take its data
   auto resumed = [&](std::chrono::seconds within) {
-    return WaitUntil([&] {
-      auto s = c.Stats(0);
-      return s.restored_transitions() == snap_transitions && s.inserted_transitions() > snap_transitions + 5000;
-    }, within);
+    return WaitUntil(
+        [&] {
+          auto s = c.Stats(0);
+          return s.restored_transitions() == snap_transitions && s.inserted_transitions() > snap_transitions + 5000;
+        },
+        within);
   };
   const bool reconnected = resumed(30s);
   if (!reconnected) {
@@ -278,12 +281,14 @@ TEST(ReplayResume, DISABLED_TheActorResumesByItselfAfterEveryShardKill) {
     c.StartShard(0);
     // the new shard's own count: it starts from nothing
     auto t0 = std::chrono::steady_clock::now();
-    bool ok = WaitUntil([&] {
-      auto v = c.collector->Snapshot();
-      auto it = v.shards.find(0);
-      return it != v.shards.end() && it->second.received > t0 + 300ms &&
-             it->second.sample.inserted_transitions() > 2000;
-    }, 25s);
+    bool ok = WaitUntil(
+        [&] {
+          auto v = c.collector->Snapshot();
+          auto it = v.shards.find(0);
+          return it != v.shards.end() && it->second.received > t0 + 300ms &&
+                 it->second.sample.inserted_transitions() > 2000;
+        },
+        25s);
     recovered += ok;
     if (!ok) failures += fmt::format(" kill {}", k + 1);
     ASSERT_FALSE(c.actors[0].Poll()) << "the actor died: " << c.actors[0].Describe();

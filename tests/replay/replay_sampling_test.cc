@@ -24,7 +24,7 @@ int64_t Publish(ReplayCluster& c, int batches, int64_t* transitions) {
   int64_t last = 0;
   for (int k = 0; k < c.shards_n; ++k) {
     auto w = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
-                                                               dds::ShardPartition(k));
+                                                                dds::ShardPartition(k));
     EXPECT_TRUE(w.ok());
     if (!w.ok()) return 0;
     EXPECT_TRUE(WaitUntil([&] { return w->matched() > 0; }, 20s));
@@ -57,9 +57,9 @@ TEST(ReplaySampling, FeatureSubsetLevelMaskedGoalRequestsRoundTripThroughShards)
   c.Join();
   int64_t transitions[2];
   const int64_t last_t = Publish(c, 30, transitions);
-  ASSERT_TRUE(WaitUntil([&] {
-    return c.Stats(0).size() == uint64_t(transitions[0]) && c.Stats(1).size() == uint64_t(transitions[1]);
-  }, 20s));
+  ASSERT_TRUE(WaitUntil(
+      [&] { return c.Stats(0).size() == uint64_t(transitions[0]) && c.Stats(1).size() == uint64_t(transitions[1]); },
+      20s));
 
   ReplayClientOptions o;
   o.timeout = 5s;

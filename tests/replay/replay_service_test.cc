@@ -71,12 +71,15 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   client->UpdatePriorities(hot, high);
   std::set<uint64_t> hot_set(hot.begin(), hot.end());
   int hits = 0;
-  ASSERT_TRUE(WaitUntil([&] {
-    if (!client->Sample(256, &batch).ok()) return false;
-    hits = 0;
-    for (uint64_t k : batch.keys) hits += hot_set.count(k);
-    return hits > 200;
-  }, 10s)) << "priority updates did not take effect (" << hits << " hot samples)";
+  ASSERT_TRUE(WaitUntil(
+      [&] {
+        if (!client->Sample(256, &batch).ok()) return false;
+        hits = 0;
+        for (uint64_t k : batch.keys) hits += hot_set.count(k);
+        return hits > 200;
+      },
+      10s))
+      << "priority updates did not take effect (" << hits << " hot samples)";
   for (int j = 0; j < 256; ++j)
     if (!hot_set.count(batch.keys[size_t(j)])) EXPECT_FLOAT_EQ(batch.weights(0, j), 1.0f);
 
@@ -92,7 +95,8 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   const int S = int(batch.obs.rows()) - 2;
   int reached = 0;
   for (int j = 0; j < 256; ++j) {
-    float dist = std::max(std::abs(batch.next_obs(0, j) - batch.obs(S, j)), std::abs(batch.next_obs(1, j) - batch.obs(S + 1, j)));
+    float dist = std::max(std::abs(batch.next_obs(0, j) - batch.obs(S, j)),
+                          std::abs(batch.next_obs(1, j) - batch.obs(S + 1, j)));
     bool hit = dist <= 0.5f;
     reached += hit;
     EXPECT_EQ(batch.rewards(0, j), hit ? 0.0f : -1.0f) << "sample " << j;
@@ -121,7 +125,8 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
 
 TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {
   // a configuration that could deadlock is refused before anything starts
-  auto refused = RunCommand(Bin("coins-replay") + " --quiet-config --set replay.samples_per_insert=2 --set replay.error_buffer=10");
+  auto refused = RunCommand(Bin("coins-replay") +
+                            " --quiet-config --set replay.samples_per_insert=2 --set replay.error_buffer=10");
   EXPECT_EQ(refused.code, 2) << refused.output;
   EXPECT_NE(refused.output.find("would deadlock"), std::string::npos) << refused.output;
 
@@ -165,14 +170,20 @@ TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
   DdsOptions dds;
   dds.domain = c.domain;
   auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
-                                                                  dds::ShardPartition(0));
+                                                                   dds::ShardPartition(0));
   ASSERT_TRUE(writer.ok());
   ASSERT_TRUE(WaitUntil([&] { return writer->matched() > 0; }, 20s));
   auto make = [](uint64_t seq) {
     auto b = std::make_unique<TransitionBatch>();
     BatchBuilder builder;
-    builder.Begin(b.get(), {.actor_id = 9, .incarnation = 5, .seq = seq, .layout_hash = LayoutHash("m", 3, 1, 0),
-                            .state_dim = 3, .action_dim = 1}, 16);
+    builder.Begin(b.get(),
+                  {.actor_id = 9,
+                   .incarnation = 5,
+                   .seq = seq,
+                   .layout_hash = LayoutHash("m", 3, 1, 0),
+                   .state_dim = 3,
+                   .action_dim = 1},
+                  16);
     for (uint32_t r = 0; r < 16; ++r) {
       float s[3] = {float(seq * 100 + r), 1, 2}, a[1] = {0};
       builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
@@ -196,7 +207,8 @@ TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
   ASSERT_TRUE(writer->WaitAcked(10s));
 
   // malformed requests are answered BAD_REQUEST, then a good one is served
-  auto requests = c.node->MakeWriter<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingWriterQos(16));
+  auto requests =
+      c.node->MakeWriter<msg::SampleRequestPubSubType>(dds::kSampleRequestTopic, dds::SamplingWriterQos(16));
   auto replies = c.node->MakeReader<msg::SampleReplyPubSubType>(dds::kSampleReplyTopic, dds::SamplingReaderQos(16));
   ASSERT_TRUE(requests.ok() && replies.ok());
   ASSERT_TRUE(WaitUntil([&] { return requests->matched() > 0; }, 20s));
@@ -216,10 +228,12 @@ TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
   ask(1, 77, 8);
   ask(2, msg::SAMPLING_SCHEMA, 0);
   ask(3, msg::SAMPLING_SCHEMA, 8);
-  ASSERT_TRUE(WaitUntil([&] {
-    replies->TakeAll([&](const msg::SampleReply& r, const auto&) { got[r.correlation_id()] = r; });
-    return got.size() == 3;
-  }, 20s));
+  ASSERT_TRUE(WaitUntil(
+      [&] {
+        replies->TakeAll([&](const msg::SampleReply& r, const auto&) { got[r.correlation_id()] = r; });
+        return got.size() == 3;
+      },
+      20s));
   EXPECT_EQ(got[1].status(), msg::SAMPLE_BAD_REQUEST);
   EXPECT_NE(got[1].error().find("schema_version 77"), std::string::npos) << got[1].error();
   EXPECT_EQ(got[2].status(), msg::SAMPLE_BAD_REQUEST);
@@ -253,14 +267,20 @@ TEST(ReplayService, OneBatchFarAheadDoesNotPoisonTheActorsLaterBatches) {
   DdsOptions dds;
   dds.domain = c.domain;
   auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
-                                                                  dds::ShardPartition(0));
+                                                                   dds::ShardPartition(0));
   ASSERT_TRUE(writer.ok());
   ASSERT_TRUE(WaitUntil([&] { return writer->matched() > 0; }, 20s));
   auto make = [](uint64_t seq) {
     auto b = std::make_unique<TransitionBatch>();
     BatchBuilder builder;
-    builder.Begin(b.get(), {.actor_id = 3, .incarnation = 77, .seq = seq, .layout_hash = LayoutHash("f", 2, 1, 0),
-                            .state_dim = 2, .action_dim = 1}, 8);
+    builder.Begin(b.get(),
+                  {.actor_id = 3,
+                   .incarnation = 77,
+                   .seq = seq,
+                   .layout_hash = LayoutHash("f", 2, 1, 0),
+                   .state_dim = 2,
+                   .action_dim = 1},
+                  8);
     for (uint32_t r = 0; r < 8; ++r) {
       float s[2] = {float(seq % 1000 + r), 1}, a[1] = {0};
       builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);

@@ -14,7 +14,9 @@ Selected DrawProportional(const ChunkStore& store, const Priorities& prio, const
   const uint64_t first = store.first_row();
   const int64_t slots = tree.size();
   const uint64_t row = first + uint64_t((slot - prio.Slot(first) + slots) % slots);
-  return PickRow(store, row, tree.Get(slot) / total, pick);
+  if (row >= store.end_row()) return Selected::kMiss;
+  PickHeldRow(store, row, tree.Get(slot) / total, pick);
+  return Selected::kRow;
 }
 
 void ImportanceWeights(std::span<const double> probs, double n, double beta, std::span<float> weights) {

@@ -42,12 +42,10 @@ concept RowSelector = requires(const S& s, std::mt19937_64* rng, Pick* pick) {
   { S::kExact } -> std::convertible_to<bool>;
 };
 
-// the pick of global row `row` (kMiss when the store does not hold it)
-inline Selected PickRow(const ChunkStore& store, uint64_t row, double prob, Pick* pick) {
-  if (row < store.first_row() || row >= store.end_row()) return Selected::kMiss;
+// the pick of global row `row`, a row the store holds (first_row() <= row < end_row())
+inline void PickHeldRow(const ChunkStore& store, uint64_t row, double prob, Pick* pick) {
   const size_t c = store.ChunkOfRow(row);
   *pick = {uint32_t(c), uint32_t(row - store.chunk(c).row_base), prob};
-  return Selected::kRow;
 }
 
 }  // namespace coins

@@ -17,15 +17,16 @@ ChunkStore::ChunkStore(int64_t capacity_transitions, int64_t capacity_bytes)
       // every row costs at least 15 bytes (delta end, reward, flags, skill, interactions)
       row_capacity_(std::min(2 * capacity_transitions, capacity_bytes / 15) + 2 * int64_t(COINS_BATCH_MAX_ROWS)) {}
 
-ChunkStore::Offsets ChunkStore::Layout(uint32_t n, uint32_t d) const {
+ChunkStore::Offsets ChunkStore::LayoutOf(uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim, uint32_t n,
+                                         uint32_t d) {
   Offsets o;
   o.first_state = 0;
-  o.delta_end = Align8(o.first_state + int64_t(state_dim_) * 4);
+  o.delta_end = Align8(o.first_state + int64_t(state_dim) * 4);
   o.delta_index = Align8(o.delta_end + int64_t(n) * 4);
   o.delta_value = Align8(o.delta_index + int64_t(d) * 2);
   o.action = Align8(o.delta_value + int64_t(d) * 4);
-  o.goal = Align8(o.action + int64_t(n) * action_dim_ * 4);
-  o.reward = Align8(o.goal + int64_t(n) * goal_dim_ * 4);
+  o.goal = Align8(o.action + int64_t(n) * action_dim * 4);
+  o.reward = Align8(o.goal + int64_t(n) * goal_dim * 4);
   o.flags = Align8(o.reward + int64_t(n) * 4);
   o.skill = Align8(o.flags + int64_t(n) * 2);
   o.interactions = Align8(o.skill + int64_t(n));

@@ -118,13 +118,23 @@ class ChunkStore {
   // hash of the stored copy (header fields kept in ChunkInfo and the layout, then the
   // columns), as Insert computed it
   uint64_t StoredHash(size_t i) const;
+  // arena bytes of a chunk of n_rows rows and n_deltas deltas with these dimensions (what an
+  // owner needs to size capacity_bytes for chunks of a known shape)
+  static int64_t ChunkBytes(uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim, uint32_t n_rows,
+                            uint32_t n_deltas) {
+    return LayoutOf(state_dim, action_dim, goal_dim, n_rows, n_deltas).end;
+  }
 
  private:
   struct Offsets {  // where each column of a chunk starts, relative to the chunk
     int64_t first_state, delta_end, delta_index, delta_value, action, goal, reward, flags, skill, interactions,
         provenance, end;
   };
-  Offsets Layout(uint32_t n_rows, uint32_t n_deltas) const;
+  static Offsets LayoutOf(uint32_t state_dim, uint32_t action_dim, uint32_t goal_dim, uint32_t n_rows,
+                          uint32_t n_deltas);
+  Offsets Layout(uint32_t n_rows, uint32_t n_deltas) const {
+    return LayoutOf(state_dim_, action_dim_, goal_dim_, n_rows, n_deltas);
+  }
   // the HeaderHash of a chunk's batch, from what the store keeps
   uint64_t StoredHeaderHash(const ChunkInfo& c) const;
   // evicts until a chunk of `bytes`, `rows` and `transitions` fits; returns its offset

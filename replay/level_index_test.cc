@@ -12,27 +12,17 @@
 namespace coins {
 namespace {
 
-using testing::MakeBatch;
-using testing::TestLayout;
-using testing::TestRow;
-
-// a batch of n transitions of one level after its context row; states count up from `first`
-std::unique_ptr<TransitionBatch> Batch(uint64_t seq, uint8_t level, int n, float first) {
-  std::vector<TestRow> rows;
-  rows.push_back({{first}, msg::ROW_SEGMENT_START, level});
-  for (int i = 1; i <= n; ++i) rows.push_back({{first + float(i)}, 0, level});
-  return MakeBatch(TestLayout{1, 0}, 0, seq, rows);
-}
+using testing::MakeRun;
 
 TEST(LevelIndex, DrawsUniformlyAmongTheAskedLevels) {
   ReplayOptions o;
   o.capacity = 1024;
   o.capacity_mb = 16;
   Shard shard(0, o);
-  ASSERT_EQ(shard.Receive(*Batch(0, 0, 90, 0)), Shard::Outcome::kStored);
-  ASSERT_EQ(shard.Receive(*Batch(1, 3, 5, 1000)), Shard::Outcome::kStored);
-  ASSERT_EQ(shard.Receive(*Batch(2, 2, 30, 2000)), Shard::Outcome::kStored);
-  ASSERT_EQ(shard.Receive(*Batch(3, 3, 5, 3000)), Shard::Outcome::kStored);
+  ASSERT_EQ(shard.Receive(*MakeRun(0, 0, 90, 0)), Shard::Outcome::kStored);
+  ASSERT_EQ(shard.Receive(*MakeRun(1, 3, 5, 1000)), Shard::Outcome::kStored);
+  ASSERT_EQ(shard.Receive(*MakeRun(2, 2, 30, 2000)), Shard::Outcome::kStored);
+  ASSERT_EQ(shard.Receive(*MakeRun(3, 3, 5, 3000)), Shard::Outcome::kStored);
   const LevelIndex& index = shard.levels();
   EXPECT_EQ(index.Count(1u << 0), 90u);
   EXPECT_EQ(index.Count(1u << 3), 10u);
@@ -65,8 +55,9 @@ TEST(LevelIndex, FollowsEvictions) {
   o.capacity_mb = 16;
   Shard shard(0, o);
   // 1024 transitions at most: the first level-3 batch leaves when the level-0 ones arrive
-  ASSERT_EQ(shard.Receive(*Batch(0, 3, 20, 0)), Shard::Outcome::kStored);
-  for (uint64_t s = 1; s <= 11; ++s) ASSERT_EQ(shard.Receive(*Batch(s, 0, 100, float(100 * s))), Shard::Outcome::kStored);
+  ASSERT_EQ(shard.Receive(*MakeRun(0, 3, 20, 0)), Shard::Outcome::kStored);
+  for (uint64_t s = 1; s <= 11; ++s)
+    ASSERT_EQ(shard.Receive(*MakeRun(s, 0, 100, float(100 * s))), Shard::Outcome::kStored);
   EXPECT_EQ(shard.levels().Count(1u << 3), 0u);
   EXPECT_EQ(shard.levels().Count(1u << 0), uint64_t(shard.store().transitions()));
   std::mt19937_64 rng(2);

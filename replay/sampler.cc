@@ -6,6 +6,10 @@
 
 #include "common/hindsight.h"
 #include "common/transition_batch.h"
+#include "replay/selectors/level.h"
+#include "replay/selectors/prioritized.h"
+#include "replay/selectors/uniform.h"
+#include "replay/selectors/weighted.h"
 
 namespace coins {
 
@@ -135,33 +139,30 @@ Status Sampler::Prepare(const ChunkStore& store, const msg::SampleRequest& req, 
   return Status::Ok();
 }
 
-bool Sampler::Draw(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
-                   std::mt19937_64* rng, Pos* pos, double* prob) {
-  const uint64_t first = store.first_row(), rows = store.end_row() - first;
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (int tries = 0; tries < options_.redraws; ++tries) {
-    uint64_t row;
-    *prob = 1.0;
-    if (req.strategy() == msg::SAMPLE_UNIFORM || (req.strategy() == msg::SAMPLE_WEIGHTED && !prio.has_weights())) {
-      row = first + std::uniform_int_distribution<uint64_t>(0, rows - 1)(*rng);
-    } else {
-      const SumTree& tree = req.strategy() == msg::SAMPLE_PRIORITIZED ? prio.priority_tree() : *prio.weights();
-      if (tree.Total() <= 0) return false;
-      int64_t slot = tree.Find(unit(*rng) * tree.Total());
-      // slot back to its global row: rows held are a contiguous range of fewer than slots rows
-      const int64_t slots = tree.size();
-      row = first + uint64_t((slot - prio.Slot(first) + slots) % slots);
-      if (row >= store.end_row()) continue;
-      *prob = tree.Get(slot) / tree.Total();
+template <class Selector>
+bool Sampler::DrawRows(const Selector& selector, const ChunkStore& store, const msg::SampleRequest& req,
+                       std::mt19937_64* rng) {
+  static_assert(RowSelector<Selector>);
+  for (uint32_t i = 0; i < plan_.batch; ++i) {
+    Pick pick;
+    bool drawn = false;
+    for (int tries = 0; tries < options_.redraws && !drawn; ++tries) {
+      const Selected s = selector.Select(rng, &pick);
+      if (s == Selected::kEmpty) return false;
+      if (s == Selected::kMiss) continue;
+      if constexpr (Selector::kExact) {
+        drawn = true;
+      } else {
+        drawn = !(store.flags(pick.chunk)[pick.row] & msg::ROW_SEGMENT_START) &&
+                LevelSelected(req, store, pick.chunk, pick.row);
+      }
     }
-    size_t c = store.ChunkOfRow(row);
-    uint32_t r = uint32_t(row - store.chunk(c).row_base);
-    if (store.flags(c)[r] & msg::ROW_SEGMENT_START) continue;
-    if (!LevelSelected(req, store, c, r)) continue;
-    *pos = {uint32_t(c), r};
-    return true;
+    if (!drawn) return false;
+    drawn_[i] = {pick.chunk, pick.row};
+    probs_[i] = pick.prob;
+    Prefetch(store, drawn_[i]);
   }
-  return false;
+  return true;
 }
 
 bool Sampler::Advance(const ChunkStore& store, Pos* p) {
@@ -330,14 +331,7 @@ void Sampler::ImportanceWeights(const ChunkStore& store, const msg::SampleReques
     std::fill(out->weight().begin(), out->weight().end(), 1.0f);
     return;
   }
-  const double N = double(store.transitions());
-  double max_w = 0;
-  for (uint32_t i = 0; i < plan_.batch; ++i) {
-    double w = std::pow(std::max(N * probs_[i], 1e-12), -options_.importance_exponent);
-    out->weight()[i] = float(w);
-    max_w = std::max(max_w, w);
-  }
-  for (uint32_t i = 0; i < plan_.batch; ++i) out->weight()[i] = float(out->weight()[i] / max_w);
+  coins::ImportanceWeights(probs_, double(store.transitions()), options_.importance_exponent, out->weight());
 }
 
 Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
@@ -345,24 +339,19 @@ Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const ms
   COINS_RETURN_IF_ERROR(Prepare(store, req, out));
   // every row first, its memory fetched ahead, then the samples: the cache misses of the
   // draws overlap instead of stalling one sample at a time
-  const bool indexed = levels && req.level_mask() != 0 && req.strategy() == msg::SAMPLE_UNIFORM;
-  for (uint32_t i = 0; i < plan_.batch; ++i) {
-    bool drawn = false;
-    if (indexed) {
-      size_t chunk = 0;
-      uint32_t row = 0;
-      drawn = levels->Draw(store, req.level_mask(), rng, &chunk, &row);
-      drawn_[i] = {uint32_t(chunk), row};
-      probs_[i] = 1.0;
-    } else {
-      drawn = Draw(store, prio, req, rng, &drawn_[i], &probs_[i]);
-    }
-    if (!drawn) {
-      if (req.level_mask() != 0) return Errorf("no transitions of level_mask {:#x} found", req.level_mask());
-      if (req.skill_level() >= 0) return Errorf("no transitions of skill level {} found", req.skill_level());
-      return Errorf("no transitions found");
-    }
-    Prefetch(store, drawn_[i]);
+  bool drawn;
+  if (levels && req.level_mask() != 0 && req.strategy() == msg::SAMPLE_UNIFORM)
+    drawn = DrawRows(LevelSelector(store, *levels, req.level_mask()), store, req, rng);
+  else if (req.strategy() == msg::SAMPLE_PRIORITIZED)
+    drawn = DrawRows(PrioritizedSelector(store, prio), store, req, rng);
+  else if (req.strategy() == msg::SAMPLE_WEIGHTED)
+    drawn = DrawRows(WeightedSelector(store, prio), store, req, rng);
+  else
+    drawn = DrawRows(UniformSelector(store), store, req, rng);
+  if (!drawn) {
+    if (req.level_mask() != 0) return Errorf("no transitions of level_mask {:#x} found", req.level_mask());
+    if (req.skill_level() >= 0) return Errorf("no transitions of skill level {} found", req.skill_level());
+    return Errorf("no transitions found");
   }
   for (uint32_t i = 0; i < plan_.batch; ++i) SampleOne(store, req, drawn_[i], i, out, rng);
   ImportanceWeights(store, req, out);

@@ -1,10 +1,11 @@
 // Sampler: answers one SampleRequest from a shard's store (idl/sampling.idl).
 //
-// Selection: uniform over transitions held, prioritised (P(i) = p_i^alpha / sum, importance
-// weight (N P(i))^-beta normalised by the batch maximum), or weighted by a per-transition
-// weight (importance weight 1: the bias is intended). Rows that are not transitions, and rows
-// of a skill level the request does not ask for, are redrawn (bounded). Levels: a non-zero
-// level_mask selects rows whose level L has bit L set; otherwise skill_level (-1: any).
+// Selection (replay/selectors/, one selector per strategy): uniform over transitions held,
+// prioritised (P(i) = p_i^alpha / sum, importance weight (N P(i))^-beta normalised by the batch
+// maximum), or weighted by a per-transition weight (importance weight 1: the bias is intended).
+// Rows that are not transitions, and rows of a skill level the request does not ask for, are
+// redrawn (bounded). Levels: a non-zero level_mask selects rows whose level L has bit L set;
+// otherwise skill_level (-1: any).
 //
 // Segments: a walk from the sampled row goes row by row and across chunk links; it ends after a
 // row flagged ROW_DONE, ROW_TRUNCATED, ROW_SKILL_TERMINATED or ROW_GOAL_END, before a
@@ -92,9 +93,11 @@ class Sampler {
   };
   // checks the request against the store's layout, sizes the reply's columns and the scratch
   Status Prepare(const ChunkStore& store, const msg::SampleRequest& req, msg::SampleReply* reply);
-  // draws one transition row of a selected level; false when redraws ran out
-  bool Draw(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req, std::mt19937_64* rng,
-            Pos* pos, double* prob);
+  // draws the batch's rows with a selector (replay/selectors/selector.h), transitions of the
+  // selected levels, and prefetches them; false when the selector is empty or redraws ran out
+  template <class Selector>
+  bool DrawRows(const Selector& selector, const ChunkStore& store, const msg::SampleRequest& req,
+                std::mt19937_64* rng);
   // asks the cache for the memory SampleOne will read at row p
   void Prefetch(const ChunkStore& store, Pos p) const;
   // fills sample i of the reply from the transition at row p

@@ -48,4 +48,16 @@ inline std::unique_ptr<TransitionBatch> MakeBatch(const TestLayout& layout, uint
   return b;
 }
 
+// a batch of one-feature states: a context row, then n transitions of one level, the states
+// counting up from `first` (actor 0)
+inline std::unique_ptr<TransitionBatch> MakeRun(uint64_t seq, uint8_t level, int n, float first) {
+  std::vector<TestRow> rows(size_t(n) + 1);
+  for (int i = 0; i <= n; ++i) {
+    rows[size_t(i)].state = {first + float(i)};
+    rows[size_t(i)].level = level;
+  }
+  rows[0].flags = msg::ROW_SEGMENT_START;
+  return MakeBatch(TestLayout{1, 0}, 0, seq, rows);
+}
+
 }  // namespace coins::testing

@@ -1,23 +1,34 @@
 // MemoryReplay: an in-process replay buffer that is a BatchSource, for tests and small runs.
 //
-// It stores steps in preallocated rings (capacity columns) and builds n-step samples at
-// sample time, mirroring what the replay service does: uniform sampling; for goal-conditioned
-// learners, hindsight relabelling inside the step's segment (her.h) with the reward and
-// termination recomputed for the chosen goal. Segments are runs of steps ended by
-// Step::segment_end (episode end, skill timeout or goal change); n-step windows and hindsight
-// goals never cross a segment's end. Keys are absolute step numbers.
+// It is the replay service's sampling over an in-memory shard: steps are stored in a replay
+// Shard (replay/shard.h: chunk store, priorities) and sampled by the service's Sampler
+// (replay/sampler.h), whose reply becomes a Batch the way the learner's does (MergeReplies,
+// ColumnsToBatch in learner/replay_client/sample_source.h). So n-step returns, hindsight
+// relabelling and prioritised sampling have one implementation, the service's:
+//   - uniform sampling, or prioritised (P(i) = p_i^alpha / sum; importance weights
+//     (N P(i))^-beta normalised by the batch maximum; new steps get the largest priority seen)
+//   - n-step returns inside a segment: reward = sum gamma^j r_j, discount gamma^k, or 0 after a
+//     terminal step; next_obs is the obs after the window's last step
+//   - goal-conditioned learners (goal_dim > 0): the goal is the step's goal, or for a fraction
+//     her_ratio of samples the goal achieved at a step of the segment from the sampled one on
+//     (kFinal: its last step, kFuture: a uniformly chosen one); every step of the window gets
+//     success_reward when the step's achieved goal is within goal_epsilon of the goal (distance
+//     scaled by goal_mask), else step_reward, and a reached goal is terminal
+// Segments are runs of steps ended by Step::segment_end or Step::terminal (episode end, skill
+// timeout or goal change); n-step windows and hindsight goals never cross a segment's end. Inside
+// a segment a step's obs is the previous step's next_obs (the store keeps one state per step); a
+// step whose obs differs starts a new segment. Keys are absolute step numbers (0, 1, ...).
+// Steps are sampleable as soon as they are added. Steps holding non-finite values are refused
+// by the shard's validation and not stored (nor counted). Not thread-safe.
 #pragma once
 
 #include <cstdint>
-#include <random>
+#include <memory>
 #include <span>
 #include <vector>
 
-#include <Eigen/Dense>
-
-#include "learner/rl/batch.h"
 #include "common/hindsight.h"
-#include "common/sum_tree.h"
+#include "learner/rl/batch.h"
 
 namespace coins::rl {
 
@@ -34,8 +45,8 @@ struct MemoryReplayOptions {
   GoalNorm goal_norm = GoalNorm::kL1;
   float step_reward = -1.0f;     // reward while the goal is not reached
   float success_reward = 0.0f;   // reward on the step that reaches it
-  bool terminate_on_success = true;
-  HerStrategy her = HerStrategy::kFuture;
+  bool terminate_on_success = true;  // the service always terminates on success: must be true
+  HerStrategy her = HerStrategy::kFuture;  // kNone, kFinal or kFuture (the service's strategies)
   float her_ratio = 0.5f;        // fraction of samples relabelled (the paper's p = 0.5)
   // prioritised sampling (the ball skill's alpha 0.2, beta 0.4); new steps get the max priority
   bool prioritized = false;
@@ -61,31 +72,24 @@ struct ReplayStep {
 class MemoryReplay : public BatchSource {
  public:
   explicit MemoryReplay(MemoryReplayOptions options);  // asserts options.Validate()
+  ~MemoryReplay() override;
 
   void Add(const ReplayStep& step);
-  int64_t size() const { return std::min(total_, options_.capacity); }
+  int64_t size() const;  // steps held (at most capacity)
   int64_t total_steps() const { return total_; }
   int sample_obs_dim() const { return options_.obs_dim + options_.goal_dim; }
 
+  // batch_size up to the service's bound (COINS_SAMPLE_MAX_BATCH)
   Status Sample(int batch_size, Batch* batch) override;
   // keys no longer in the buffer are ignored
   void UpdatePriorities(std::span<const uint64_t> keys, std::span<const float> priorities) override;
 
  private:
-  int64_t Slot(int64_t abs) const { return abs % options_.capacity; }
-  bool Reached(int64_t abs, const Eigen::VectorXf& goal) const;
+  struct State;  // the service's shard, sampler and scratch (memory_replay.cc)
 
   MemoryReplayOptions options_;
-  Eigen::MatrixXf obs_, next_obs_, actions_, goals_, achieved_;
-  std::vector<float> rewards_;
-  std::vector<uint8_t> terminal_;
-  std::vector<int64_t> seg_begin_, seg_end_;  // absolute; seg_end_ = -1 while open
+  std::unique_ptr<State> state_;
   int64_t total_ = 0;
-  int64_t open_begin_ = 0;  // first step of the open segment
-  SumTree tree_;            // prioritized only: priority^alpha per slot
-  double max_priority_ = 1.0;
-  std::mt19937_64 rng_;
-  Eigen::VectorXf goal_;    // sampling scratch
 };
 
 }  // namespace coins::rl

@@ -112,5 +112,52 @@ TEST(MemoryReplay, RingKeepsTheNewestSteps) {
   EXPECT_FALSE(bad.Validate().ok());
 }
 
+TEST(MemoryReplay, AStepThatDoesNotStartWhereTheLastEndedStartsASegment) {
+  MemoryReplayOptions o;
+  o.obs_dim = 1;
+  o.n_step = 3;
+  o.gamma = 0.5f;
+  MemoryReplay replay(o);
+  // 0 -> 1, then 5 -> 6 and 6 -> 7 without a segment end in between: two segments
+  const float steps[3][2] = {{0, 1}, {5, 6}, {6, 7}};
+  for (const auto& st : steps) {
+    float act = 0.0f;
+    ReplayStep s;
+    s.obs = {&st[0], 1};
+    s.next_obs = {&st[1], 1};
+    s.action = {&act, 1};
+    s.reward = 1.0f;
+    replay.Add(s);
+  }
+  Batch batch;
+  ASSERT_TRUE(replay.Sample(64, &batch).ok());
+  for (int b = 0; b < batch.size(); ++b) {
+    const uint64_t t = batch.keys[size_t(b)];
+    EXPECT_EQ(batch.obs(0, b), steps[t][0]);
+    EXPECT_EQ(batch.next_obs(0, b), t == 0 ? 1.0f : 7.0f) << t;
+    EXPECT_FLOAT_EQ(batch.rewards(0, b), t == 1 ? 1.5f : 1.0f) << t;
+    EXPECT_FLOAT_EQ(batch.discounts(0, b), t == 1 ? 0.25f : 0.5f) << t;
+  }
+}
+
+TEST(MemoryReplay, RefusesWhatTheReplayServiceDoesNotDo) {
+  MemoryReplayOptions o;
+  o.obs_dim = 1;
+  o.goal_dim = 1;
+  ASSERT_TRUE(o.Validate().ok());
+  MemoryReplayOptions episode = o;
+  episode.her = HerStrategy::kEpisode;
+  EXPECT_NE(episode.Validate().message().find("episode"), std::string::npos);
+  MemoryReplayOptions no_stop = o;
+  no_stop.terminate_on_success = false;
+  EXPECT_NE(no_stop.Validate().message().find("terminate_on_success"), std::string::npos);
+  MemoryReplay replay(o);
+  Batch batch;
+  EXPECT_FALSE(replay.Sample(8, &batch).ok());  // empty
+  AddWalk(&replay, {0, 1}, 1.0f, true);
+  EXPECT_TRUE(replay.Sample(8, &batch).ok());
+  EXPECT_NE(replay.Sample(5000, &batch).message().find("batch_size"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace coins::rl

@@ -178,14 +178,17 @@ size_t ChunkStore::ChunkOfRow(uint64_t row) const {
   size_t lo = 0, hi = count_;
   while (hi - lo > 1) {
     size_t mid = (lo + hi) / 2;
-    if (chunk(mid).row_base <= row) lo = mid;
-    else hi = mid;
+    if (chunk(mid).row_base <= row)
+      lo = mid;
+    else
+      hi = mid;
   }
   return lo;
 }
 
 uint64_t ChunkStore::StoredHeaderHash(const ChunkInfo& c) const {
-  BatchHeader h{c.actor_id, c.incarnation, c.seq, c.env_id, layout_, state_dim_, action_dim_, goal_dim_, c.episode_base};
+  BatchHeader h{c.actor_id, c.incarnation, c.seq,     c.env_id,      layout_,
+                state_dim_, action_dim_,   goal_dim_, c.episode_base};
   return HeaderHash(msg::TRANSITION_BATCH_SCHEMA, h, c.n_rows);
 }
 

@@ -28,7 +28,7 @@
 namespace coins {
 
 struct ChunkInfo {
-  int64_t offset = 0;        // in the arena
+  int64_t offset = 0;  // in the arena
   int64_t bytes = 0;
   uint32_t n_rows = 0;
   uint32_t transitions = 0;
@@ -86,9 +86,7 @@ class ChunkStore {
   uint64_t first_row() const { return count_ ? chunk(0).row_base : next_row_; }
   uint64_t end_row() const { return next_row_; }
   // index (0 = oldest) of the chunk with global id `id`, or -1 when it is not held
-  int64_t IndexOf(uint64_t id) const {
-    return (id >= first_id() && id < next_id_) ? int64_t(id - first_id()) : -1;
-  }
+  int64_t IndexOf(uint64_t id) const { return (id >= first_id() && id < next_id_) ? int64_t(id - first_id()) : -1; }
   // index of the chunk holding global row `row` (first_row() <= row < end_row()), O(log chunks)
   size_t ChunkOfRow(uint64_t row) const;
   int64_t transitions() const { return transitions_; }
@@ -151,7 +149,7 @@ class ChunkStore {
   std::unique_ptr<uint8_t[]> arena_;
   std::vector<ChunkInfo> ring_;  // chunk descriptors, a ring of first_ .. first_ + count_
   size_t first_ = 0, count_ = 0;
-  int64_t head_ = 0;             // next free byte in the arena
+  int64_t head_ = 0;  // next free byte in the arena
   int64_t transitions_ = 0, rows_ = 0, bytes_ = 0;
   uint64_t next_id_ = 0, next_row_ = 0;
   std::unordered_map<uint64_t, uint64_t> last_of_stream_;  // (actor << 32 | env) -> newest chunk id

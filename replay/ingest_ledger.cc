@@ -2,8 +2,7 @@
 
 namespace coins {
 
-IngestLedger::Admission IngestLedger::Admit(uint32_t actor_id, uint64_t incarnation, uint64_t seq,
-                                            bool* dropped_held) {
+IngestLedger::Admission IngestLedger::Admit(uint32_t actor_id, uint64_t incarnation, uint64_t seq, bool* dropped_held) {
   if (dropped_held) *dropped_held = false;
   ActorLedger& a = actors_[actor_id];
   const bool known = a.incarnations > 0 && a.incarnation == incarnation;

@@ -25,9 +25,9 @@ struct ActorLedger {
   uint64_t next_seq = 0;
   uint64_t batches = 0;
   uint64_t transitions = 0;
-  uint64_t checksum = 0;    // sum of stored-copy hashes (mod 2^64)
+  uint64_t checksum = 0;  // sum of stored-copy hashes (mod 2^64)
   uint64_t incarnations = 0;
-  uint64_t seq_jumps = 0;   // jumps seen (held batches), confirmed or not
+  uint64_t seq_jumps = 0;  // jumps seen (held batches), confirmed or not
   // the held jump, if any
   bool holding = false;
   uint64_t held_incarnation = 0;

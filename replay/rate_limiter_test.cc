@@ -40,13 +40,17 @@ TEST(RateLimiter, BlockedSamplerTimesOutAndIsReleasedByInserts) {
   RateLimiter l({100, 1.0, 600});
   std::atomic<int64_t> size{0};
   auto t0 = Clock::now();
-  EXPECT_FALSE(l.AwaitSample(32, [&] { return size.load(); }, 200ms));
+  EXPECT_FALSE(l.AwaitSample(
+      32, [&] { return size.load(); }, 200ms));
   auto blocked = Clock::now() - t0;
   EXPECT_GE(blocked, 190ms);
   EXPECT_LT(blocked, 1500ms);
 
   std::atomic<bool> released{false};
-  std::thread sampler([&] { released = l.AwaitSample(32, [&] { return size.load(); }, 5s); });
+  std::thread sampler([&] {
+    released = l.AwaitSample(
+        32, [&] { return size.load(); }, 5s);
+  });
   std::this_thread::sleep_for(100ms);
   EXPECT_FALSE(released.load());
   auto t1 = Clock::now();
@@ -68,11 +72,15 @@ TEST(RateLimiter, BlockedInserterIsReleasedBySamplesAndByClose) {
   std::thread inserter([&] { done = l.AwaitInsert(100, 600, 5s); });
   std::this_thread::sleep_for(50ms);
   EXPECT_FALSE(done.load());
-  ASSERT_TRUE(l.AwaitSample(200, [] { return int64_t(600); }, 0ms));
+  ASSERT_TRUE(l.AwaitSample(
+      200, [] { return int64_t(600); }, 0ms));
   inserter.join();
   EXPECT_TRUE(done.load());
   // Close releases a waiter at once, without counting
-  std::thread stuck([&] { EXPECT_FALSE(l.AwaitSample(100000, [] { return int64_t(0); }, 10s)); });
+  std::thread stuck([&] {
+    EXPECT_FALSE(l.AwaitSample(
+        100000, [] { return int64_t(0); }, 10s));
+  });
   auto t1 = Clock::now();
   std::this_thread::sleep_for(20ms);
   l.Close();
@@ -92,7 +100,8 @@ TEST(RateLimiter, ReleasedInsertsProceedWhileSamplesAreStillServed) {
   inserter.join();
   EXPECT_TRUE(done.load());
   EXPECT_TRUE(l.AwaitInsert(5000, 700, 0ms));
-  EXPECT_TRUE(l.AwaitSample(200, [] { return int64_t(5700); }, 0ms));
+  EXPECT_TRUE(l.AwaitSample(
+      200, [] { return int64_t(5700); }, 0ms));
   EXPECT_EQ(l.counters().inserted, 5700u);
   EXPECT_EQ(l.counters().sampled, 200u);
 }
@@ -114,7 +123,8 @@ TEST(RateLimiter, AfterCloseInsertsProceedAndSamplesAreRefused) {
   // later inserts (batches drained from DDS after the stop) do not wait either
   EXPECT_TRUE(l.AwaitInsert(100, 700, 0ms));
   EXPECT_EQ(l.counters().inserted, 800u);
-  EXPECT_FALSE(l.AwaitSample(1, [] { return int64_t(800); }, 0ms));
+  EXPECT_FALSE(l.AwaitSample(
+      1, [] { return int64_t(800); }, 0ms));
   EXPECT_EQ(l.counters().sampled, 0u);
 }
 

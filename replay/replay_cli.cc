@@ -27,9 +27,8 @@ void RunInspect(const std::string& path, bool json) {
   for (const auto& sec : img.sections) sections.push_back({{"tag", sec.tag}, {"bytes", sec.length}, {"ok", sec.ok}});
   uint64_t actors = img.ledger.is_array() ? img.ledger.size() : 0;
   if (json) {
-    nlohmann::json j = {{"path", path},         {"format", img.format}, {"valid", s.ok()},
-                        {"error", s.message()}, {"meta", img.meta},     {"config", img.config},
-                        {"ledger", img.ledger}, {"sections", sections}};
+    nlohmann::json j = {{"path", path},     {"format", img.format}, {"valid", s.ok()},      {"error", s.message()},
+                        {"meta", img.meta}, {"config", img.config}, {"ledger", img.ledger}, {"sections", sections}};
     std::cout << j.dump() << std::endl;
   } else {
     std::cout << "snapshot   " << path << "\n";
@@ -132,7 +131,8 @@ void AddReplayCommands(CLI::App& app) {
 
   auto f = std::make_shared<SnapshotFlags>();
   CLI::App* snap = app.add_subcommand("snapshot", "Ask running replay shards for a snapshot now and wait for it.");
-  snap->add_option("--config", f->config, "YAML config file (its dds and run sections are used)")->check(CLI::ExistingFile);
+  snap->add_option("--config", f->config, "YAML config file (its dds and run sections are used)")
+      ->check(CLI::ExistingFile);
   snap->add_option("--domain", f->domain, "DDS domain id (overrides the config)")->check(CLI::Range(0, 232));
   snap->add_option("--target", f->target, "'replay' (every shard), 'all', or one shard's name ('replay-0')");
   snap->add_option("--shards", f->shards, "shards to wait for (default: run.shards, or 1 for one name)")

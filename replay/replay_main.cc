@@ -8,8 +8,8 @@
 #include <set>
 #include <thread>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "common/checkpoint.h"
 #include "common/dds/heartbeat.h"
@@ -70,19 +70,33 @@ nlohmann::json StatsJson(const msg::ReplayStats& s, const ReplayService::View& v
   nlohmann::json actors = nlohmann::json::array();
   for (const auto& a : s.actors()) {
     auto it = v.actors.find(a.actor_id());
-    actors.push_back({{"actor_id", a.actor_id()}, {"batches", a.batches()}, {"transitions", a.transitions()},
-                      {"payload_checksum", a.payload_checksum()}, {"next_seq", a.next_seq()},
-                      {"stored_transitions", a.stored_transitions()}, {"stored_checksum", a.stored_checksum()},
+    actors.push_back({{"actor_id", a.actor_id()},
+                      {"batches", a.batches()},
+                      {"transitions", a.transitions()},
+                      {"payload_checksum", a.payload_checksum()},
+                      {"next_seq", a.next_seq()},
+                      {"stored_transitions", a.stored_transitions()},
+                      {"stored_checksum", a.stored_checksum()},
                       {"seq_jumps", it != v.actors.end() ? it->second.seq_jumps : 0}});
   }
-  return {{"shard_id", s.shard_id()}, {"size", s.size()}, {"capacity", s.capacity()},
-         {"inserted_transitions", s.inserted_transitions()}, {"inserted_batches", s.inserted_batches()},
-         {"duplicates", s.duplicates()}, {"gaps", s.gaps()}, {"rejected", s.rejected()},
-         {"samples_served", s.samples_served()}, {"bad_requests", s.bad_requests()},
-         {"rate_limited", s.rate_limited()}, {"snapshots_written", s.snapshots_written()},
-         {"snapshot_failures", s.snapshot_failures()},
-         {"restored_transitions", s.restored_transitions()}, {"corrupt_snapshots", s.corrupt_snapshots()},
-         {"seq_jumps", v.seq_jumps}, {"held_batches", v.held}, {"actors", actors}};
+  return {{"shard_id", s.shard_id()},
+          {"size", s.size()},
+          {"capacity", s.capacity()},
+          {"inserted_transitions", s.inserted_transitions()},
+          {"inserted_batches", s.inserted_batches()},
+          {"duplicates", s.duplicates()},
+          {"gaps", s.gaps()},
+          {"rejected", s.rejected()},
+          {"samples_served", s.samples_served()},
+          {"bad_requests", s.bad_requests()},
+          {"rate_limited", s.rate_limited()},
+          {"snapshots_written", s.snapshots_written()},
+          {"snapshot_failures", s.snapshot_failures()},
+          {"restored_transitions", s.restored_transitions()},
+          {"corrupt_snapshots", s.corrupt_snapshots()},
+          {"seq_jumps", v.seq_jumps},
+          {"held_batches", v.held},
+          {"actors", actors}};
 }
 
 // snapshot requests (command ids; 0 = periodic) handed to the snapshot thread
@@ -138,8 +152,8 @@ Result<Topics> OpenTopics(dds::Node& node, const DdsOptions& dds, int64_t id) {
   auto updates = node.MakeReader<msg::PriorityUpdatePubSubType>(dds::kPriorityUpdateTopic, dds::SamplingReaderQos(64));
   auto control = node.MakeReader<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandReaderQos());
   auto stats = node.MakeWriter<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusWriterQos());
-  for (const Status* s :
-       {&batches.status(), &requests.status(), &replies.status(), &updates.status(), &control.status(), &stats.status()})
+  for (const Status* s : {&batches.status(), &requests.status(), &replies.status(), &updates.status(),
+                          &control.status(), &stats.status()})
     if (!s->ok()) return s->WithContext("cannot open DDS topics");
   return Topics{*batches, *requests, *replies, *updates, *control, *stats};
 }
@@ -153,8 +167,10 @@ Result<std::unique_ptr<ReplayService>> OpenService(int64_t id, const ReplayOptio
   for (const auto& c : resume->corrupt) spdlog::warn("skipped snapshot: {}", c);
   if (!service.ok()) return service;
   if (resume_command != 0 && resume->snapshot.empty())
-    spdlog::warn("no snapshot of epoch {} in '{}' ({} of other commands): starting empty (a shard that held "
-                 "nothing at the cut writes none)", resume_epoch, options.snapshot_dir, resume->other_command.size());
+    spdlog::warn(
+        "no snapshot of epoch {} in '{}' ({} of other commands): starting empty (a shard that held "
+        "nothing at the cut writes none)",
+        resume_epoch, options.snapshot_dir, resume->other_command.size());
   if (!resume->snapshot.empty()) {
     spdlog::info("resumed {} transitions from {} in {:.3f} s", resume->transitions, resume->snapshot, resume->seconds);
     for (const auto& c : resume->config_changes)
@@ -189,7 +205,8 @@ class ShardProcess {
     // a clean stop keeps what was stored: a final snapshot when the shard has a directory
     if (!options_.snapshot_dir.empty() && options_.snapshot_on_stop) {
       auto r = service_.Snapshot(0);
-      if (!r.ok()) spdlog::warn("final snapshot failed: {}", r.status().message());
+      if (!r.ok())
+        spdlog::warn("final snapshot failed: {}", r.status().message());
       else if (!r->path.empty())
         spdlog::info("final snapshot {}: {} transitions, {} bytes in {:.3f} s", r->path, r->transitions, r->bytes,
                      r->seconds);
@@ -207,8 +224,10 @@ class ShardProcess {
     }
     last_batch_ = std::chrono::steady_clock::now();
     if (!why.empty() && notes_logged_++ < 50) {
-      if (r == ReplayService::InsertResult::kRejected) spdlog::warn("rejected: {}", why);
-      else spdlog::warn("{}", why);
+      if (r == ReplayService::InsertResult::kRejected)
+        spdlog::warn("rejected: {}", why);
+      else
+        spdlog::warn("{}", why);
     }
   }
 
@@ -218,7 +237,9 @@ class ShardProcess {
   void Ingest() {
     msg::TransitionBatch scratch;
     last_batch_ = std::chrono::steady_clock::now();
-    auto take = [&] { return t_.batches.TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) { Store(b); }); };
+    auto take = [&] {
+      return t_.batches.TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) { Store(b); });
+    };
     while (!StopRequested())
       if (t_.batches.Wait(50ms)) take();
     // a clean stop: actors stopped together with the shard publish their last batches and wait
@@ -276,8 +297,8 @@ class ShardProcess {
       if (r.ok() && r->path.empty())
         spdlog::info("snapshot skipped: nothing stored yet (command {})", command);
       else if (r.ok())
-        spdlog::info("snapshot {}: {} transitions, {} bytes in {:.3f} s (command {})", r->path, r->transitions, r->bytes,
-                     r->seconds, command);
+        spdlog::info("snapshot {}: {} transitions, {} bytes in {:.3f} s (command {})", r->path, r->transitions,
+                     r->bytes, r->seconds, command);
       else
         spdlog::warn("snapshot failed: {}", r.status().message());
     }
@@ -296,7 +317,8 @@ class ShardProcess {
         bool mine = c.target() == "all" || c.target() == "replay" || c.target() == name_;
         if (!mine || !commands_seen.insert(c.command_id()).second) return;
         // a checkpoint epoch's snapshot is a snapshot stamped with the epoch's command id
-        if (c.command() == msg::CONTROL_SNAPSHOT || c.command() == msg::CONTROL_CHECKPOINT) snapshots_.Push(c.command_id());
+        if (c.command() == msg::CONTROL_SNAPSHOT || c.command() == msg::CONTROL_CHECKPOINT)
+          snapshots_.Push(c.command_id());
         if (c.command() == msg::CONTROL_STOP) RequestStop();
       });
       auto now = std::chrono::steady_clock::now();
@@ -320,7 +342,7 @@ class ShardProcess {
   Topics& t_;
   SnapshotQueue snapshots_;
   std::atomic<bool> ingest_done_{false};
-  uint64_t notes_logged_ = 0;                          // ingest thread only
+  uint64_t notes_logged_ = 0;                         // ingest thread only
   std::chrono::steady_clock::time_point last_batch_;  // ingest thread only
   Joiner joiner_;                                     // last: joins before the rest goes
 };
@@ -335,10 +357,11 @@ void ReportFinalStats(ReplayService& service, Topics& t, msg::ReplayStats& stats
     if (Status s = WriteFileAtomic(stats_out, StatsJson(stats, final_view).dump() + "\n"); !s.ok())
       spdlog::warn("{}", s.message());
   }
-  spdlog::info("stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} sequence jumps ({} held "
-               "unconfirmed), {} rejected, {} samples served",
-               stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(),
-               final_view.seq_jumps, final_view.held, stats.rejected(), stats.samples_served());
+  spdlog::info(
+      "stopped: {} transitions in {} batches stored, {} duplicates, {} gaps, {} sequence jumps ({} held "
+      "unconfirmed), {} rejected, {} samples served",
+      stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(), final_view.seq_jumps,
+      final_view.held, stats.rejected(), stats.samples_served());
   for (const auto& [actor, a] : final_view.actors)
     spdlog::info("actor {}: {} transitions in {} batches stored (next seq {})", actor, a.transitions, a.batches,
                  a.next_seq);
@@ -356,8 +379,9 @@ int ReplayMain(int argc, char** argv) {
   main.AddSection(ConfigSection::Of("replay", options));
   main.app().add_option("--id", id, "shard id, in [0, run.shards)")->check(CLI::Range(0, 1 << 20));
   main.app().add_option("--stats-out", stats_out, "write the final ReplayStats as JSON to this file");
-  main.app().add_option("--resume-epoch", resume_epoch,
-                        "resume the snapshot of checkpoint epoch N (coins run --resume); default: the newest snapshot")
+  main.app()
+      .add_option("--resume-epoch", resume_epoch,
+                  "resume the snapshot of checkpoint epoch N (coins run --resume); default: the newest snapshot")
       ->check(CLI::NonNegativeNumber);
   main.app().add_flag("--new-config", new_config,
                       "on resume, this config wins over the snapshot's (same as replay.prefer_new_config=true)");

@@ -69,8 +69,8 @@ struct ReplayOptions {
   // the rate limiter's rules, and the memory one shard of this config needs against the
   // machine's (CheckShardMemory)
   Status Validate() const {
-    COINS_RETURN_IF_ERROR(RateLimiter::Check(rate(), capacity, COINS_BATCH_MAX_ROWS, COINS_SAMPLE_MAX_BATCH)
-                              .WithContext("replay"));
+    COINS_RETURN_IF_ERROR(
+        RateLimiter::Check(rate(), capacity, COINS_BATCH_MAX_ROWS, COINS_SAMPLE_MAX_BATCH).WithContext("replay"));
     return CheckShardMemory(*this, 1);
   }
 };

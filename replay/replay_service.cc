@@ -112,12 +112,14 @@ void ReplayService::Sample(const msg::SampleRequest& req, msg::SampleReply* repl
     return fail(msg::SAMPLE_BAD_REQUEST, s.message());
   }
   auto wait = std::min(max_wait, std::chrono::milliseconds(req.timeout_ms()));
-  if (!limiter_.AwaitSample(req.batch_size(), [this] { return size_.load(); }, wait)) {
+  if (!limiter_.AwaitSample(
+          req.batch_size(), [this] { return size_.load(); }, wait)) {
     std::lock_guard lock(mu_);
     counters_.rate_limited++;
     reply->shard_size(uint64_t(size_.load()));
-    return fail(msg::SAMPLE_NOT_READY, fmt::format("shard {}: rate limiter: {} transitions held, not ready within {} ms",
-                                                   shard_.id(), size_.load(), wait.count()));
+    return fail(msg::SAMPLE_NOT_READY,
+                fmt::format("shard {}: rate limiter: {} transitions held, not ready within {} ms", shard_.id(),
+                            size_.load(), wait.count()));
   }
   std::lock_guard lock(mu_);
   reply->shard_size(uint64_t(shard_.store().transitions()));
@@ -136,8 +138,10 @@ void ReplayService::Update(uint8_t kind, std::span<const uint64_t> keys, std::sp
   const uint64_t first = shard_.store().first_row(), end = shard_.store().end_row();
   for (size_t i = 0; i < keys.size() && i < values.size(); ++i) {
     if (keys[i] < first || keys[i] >= end || !(values[i] >= 0) || !std::isfinite(values[i])) continue;
-    if (kind == msg::UPDATE_PRIORITY) shard_.priorities().SetPriority(keys[i], values[i]);
-    else shard_.priorities().SetWeight(keys[i], values[i]);
+    if (kind == msg::UPDATE_PRIORITY)
+      shard_.priorities().SetPriority(keys[i], values[i]);
+    else
+      shard_.priorities().SetWeight(keys[i], values[i]);
   }
 }
 

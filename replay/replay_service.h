@@ -26,10 +26,10 @@
 namespace coins {
 
 struct ResumeReport {
-  std::string snapshot;                    // the snapshot resumed from ("" = none)
-  std::vector<std::string> corrupt;        // one line per snapshot skipped
-  std::vector<std::string> other_command;  // snapshots skipped: not of the command asked for
-  std::vector<std::string> config_changes; // "key: snapshot -> new"
+  std::string snapshot;                     // the snapshot resumed from ("" = none)
+  std::vector<std::string> corrupt;         // one line per snapshot skipped
+  std::vector<std::string> other_command;   // snapshots skipped: not of the command asked for
+  std::vector<std::string> config_changes;  // "key: snapshot -> new"
   bool new_config_won = false;
   uint64_t transitions = 0;
   double seconds = 0;

@@ -33,10 +33,13 @@ uint32_t FeatureDim(const msg::SampleRequest& req, uint32_t state_dim) {
 Status ValidateSelection(const msg::SampleRequest& q) {
   const auto id = q.correlation_id();
   if (q.strategy() > msg::SAMPLE_WEIGHTED) return Errorf("sample request {}: unknown strategy {}", id, q.strategy());
-  if (q.her_strategy() > msg::HER_FUTURE) return Errorf("sample request {}: unknown her_strategy {}", id, q.her_strategy());
+  if (q.her_strategy() > msg::HER_FUTURE)
+    return Errorf("sample request {}: unknown her_strategy {}", id, q.her_strategy());
   if (q.level_mask() >> COINS_MAX_LEVELS)
-    return Errorf("sample request {}: level_mask {:#x} names levels at or above {}", id, q.level_mask(), COINS_MAX_LEVELS);
-  if (q.n_step() < 1 || q.n_step() > 1000) return Errorf("sample request {}: n_step {} not in [1, 1000]", id, q.n_step());
+    return Errorf("sample request {}: level_mask {:#x} names levels at or above {}", id, q.level_mask(),
+                  COINS_MAX_LEVELS);
+  if (q.n_step() < 1 || q.n_step() > 1000)
+    return Errorf("sample request {}: n_step {} not in [1, 1000]", id, q.n_step());
   if (!(q.gamma() >= 0 && q.gamma() <= 1)) return Errorf("sample request {}: gamma {} not in [0, 1]", id, q.gamma());
   if (!(q.her_ratio() >= 0 && q.her_ratio() <= 1))
     return Errorf("sample request {}: her_ratio {} not in [0, 1]", id, q.her_ratio());

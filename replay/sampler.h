@@ -78,8 +78,8 @@ class Sampler {
   // levels (optional): the shard's level index; uniform requests with a level_mask then draw
   // exactly among the rows of those levels (without it, or for prioritised and weighted
   // requests, rows of other levels are redrawn, at most SamplerOptions::redraws times)
-  Status Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req,
-                msg::SampleReply* reply, std::mt19937_64* rng, const LevelIndex* levels = nullptr);
+  Status Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req, msg::SampleReply* reply,
+                std::mt19937_64* rng, const LevelIndex* levels = nullptr);
 
  private:
   struct Pos {
@@ -96,8 +96,7 @@ class Sampler {
   // draws the batch's rows with a selector (replay/selectors/selector.h), transitions of the
   // selected levels, and prefetches them; false when the selector is empty or redraws ran out
   template <class Selector>
-  bool DrawRows(const Selector& selector, const ChunkStore& store, const msg::SampleRequest& req,
-                std::mt19937_64* rng);
+  bool DrawRows(const Selector& selector, const ChunkStore& store, const msg::SampleRequest& req, std::mt19937_64* rng);
   // asks the cache for the memory SampleOne will read at row p
   void Prefetch(const ChunkStore& store, Pos p) const;
   // fills sample i of the reply from the transition at row p

@@ -146,11 +146,10 @@ TEST(SamplerFields, RowColumnsAndPolicyVersionFromProvenance) {
   Fixture f;
   const TestLayout layout{1, 0};
   auto rows = [](float base) {
-    return std::vector<TestRow>{
-        {.state = {base}, .flags = msg::ROW_SEGMENT_START, .level = 0},
-        {.state = {base + 1}, .level = 0, .interactions = 5},
-        {.state = {base + 2}, .flags = msg::ROW_INTERACTION, .level = 1, .interactions = 2},
-        {.state = {base + 3}, .flags = msg::ROW_TRUNCATED, .level = 2}};
+    return std::vector<TestRow>{{.state = {base}, .flags = msg::ROW_SEGMENT_START, .level = 0},
+                                {.state = {base + 1}, .level = 0, .interactions = 5},
+                                {.state = {base + 2}, .flags = msg::ROW_INTERACTION, .level = 1, .interactions = 2},
+                                {.state = {base + 3}, .flags = msg::ROW_TRUNCATED, .level = 2}};
   };
   f.Add(MakeBatch(layout, 1, 0, rows(0), {7, 9}, 3));
   f.Add(MakeBatch(layout, 1, 1, rows(3), {8, 10}, 4));

@@ -81,7 +81,8 @@ TEST(Sampler, NStepReturnsCrossChunksAndStopAtEpisodeEnd) {
   Sampler sampler({});
   std::mt19937_64 rng(2);
   msg::SampleReply r;
-  ASSERT_TRUE(sampler.Sample(f.shard.store(), f.shard.priorities(), Request(1000, msg::SAMPLE_UNIFORM, 3), &r, &rng).ok());
+  ASSERT_TRUE(
+      sampler.Sample(f.shard.store(), f.shard.priorities(), Request(1000, msg::SAMPLE_UNIFORM, 3), &r, &rng).ok());
   int crossed = 0;
   for (uint32_t i = 0; i < r.n(); ++i) {
     int64_t t0 = int64_t(r.state()[i * 4]) + 1;  // first step of the window
@@ -120,8 +121,10 @@ TEST(Sampler, HindsightFinalAndFutureUseTheSegmentsAchievedGoals) {
       int64_t end = std::min<int64_t>((t + 99) / 100 * 100, f.stream.t());
       float goal_t = r.goal()[i * 2 + 1];
       EXPECT_EQ(r.goal()[i * 2], 0.0f);  // masked out
-      if (strategy == msg::HER_FINAL) EXPECT_EQ(goal_t, float(end)) << "t " << t;
-      else EXPECT_TRUE(goal_t >= float(t) && goal_t <= float(end)) << "t " << t << " goal " << goal_t;
+      if (strategy == msg::HER_FINAL)
+        EXPECT_EQ(goal_t, float(end)) << "t " << t;
+      else
+        EXPECT_TRUE(goal_t >= float(t) && goal_t <= float(end)) << "t " << t << " goal " << goal_t;
       bool reached = float(t) == goal_t;
       EXPECT_EQ(r.reward()[i], reached ? 0.0f : -1.0f);
       EXPECT_EQ(r.discount()[i], reached || t % 100 == 0 ? 0.0f : 0.5f);
@@ -134,12 +137,14 @@ TEST(Sampler, PrioritisedFollowsPrioritiesAndWeightsCorrect) {
   Sampler sampler({});
   std::mt19937_64 rng(4);
   msg::SampleReply r;
-  ASSERT_TRUE(sampler.Sample(f.shard.store(), f.shard.priorities(), Request(64, msg::SAMPLE_PRIORITIZED), &r, &rng).ok());
+  ASSERT_TRUE(
+      sampler.Sample(f.shard.store(), f.shard.priorities(), Request(64, msg::SAMPLE_PRIORITIZED), &r, &rng).ok());
   // every key but one gets a tiny priority
   uint64_t hot = r.key()[0];
   for (uint64_t k = f.shard.store().first_row(); k < f.shard.store().end_row(); ++k)
     f.shard.priorities().SetPriority(k, k == hot ? 1000.0 : 0.001);
-  ASSERT_TRUE(sampler.Sample(f.shard.store(), f.shard.priorities(), Request(1000, msg::SAMPLE_PRIORITIZED), &r, &rng).ok());
+  ASSERT_TRUE(
+      sampler.Sample(f.shard.store(), f.shard.priorities(), Request(1000, msg::SAMPLE_PRIORITIZED), &r, &rng).ok());
   int hits = 0;
   for (uint32_t i = 0; i < r.n(); ++i) {
     if (r.key()[i] == hot) {
@@ -175,7 +180,8 @@ TEST(Sampler, SkillLevelFilterAndBadRequests) {
     EXPECT_EQ(shard.store().chunk(c).actor_id, 2u);
   }
   q.skill_level(7);
-  EXPECT_NE(sampler.Sample(shard.store(), shard.priorities(), q, &r, &rng).message().find("skill level 7"), std::string::npos);
+  EXPECT_NE(sampler.Sample(shard.store(), shard.priorities(), q, &r, &rng).message().find("skill level 7"),
+            std::string::npos);
   // malformed requests name the field
   auto bad = [&](auto mutate, const char* what) {
     msg::SampleRequest x = Request(16);
@@ -188,7 +194,12 @@ TEST(Sampler, SkillLevelFilterAndBadRequests) {
   bad([](auto& x) { x.batch_size(0); }, "batch_size");
   bad([](auto& x) { x.gamma(std::nanf("")); }, "gamma");
   bad([](auto& x) { x.her_strategy(msg::HER_FUTURE); }, "goal_mask");
-  bad([](auto& x) { x.goal_mask({1, 1, 1}); x.target_offset(3); }, "exceeds state_dim");
+  bad(
+      [](auto& x) {
+        x.goal_mask({1, 1, 1});
+        x.target_offset(3);
+      },
+      "exceeds state_dim");
   bad([](auto& x) { x.strategy(9); }, "strategy");
 }
 

@@ -23,10 +23,11 @@ Status CheckShardMemory(const ReplayOptions& o, int64_t shards) {
   if (machine <= 0) return Status::Ok();  // cannot tell: the allocation itself reports
   const double need = double(ShardMemoryBytes(o)) * double(shards);
   if (need <= 0.9 * double(machine)) return Status::Ok();
-  return Errorf("replay.capacity_mb {} and replay.capacity {}: {} would need about {}, more than 90% of this "
-                "machine's {} of memory; lower them",
-                o.capacity_mb, o.capacity, shards == 1 ? std::string("a shard") : fmt::format("{} shards", shards),
-                HumanBytes(need), HumanBytes(double(machine)));
+  return Errorf(
+      "replay.capacity_mb {} and replay.capacity {}: {} would need about {}, more than 90% of this "
+      "machine's {} of memory; lower them",
+      o.capacity_mb, o.capacity, shards == 1 ? std::string("a shard") : fmt::format("{} shards", shards),
+      HumanBytes(need), HumanBytes(double(machine)));
 }
 
 Shard::Shard(uint32_t shard_id, const ReplayOptions& options)
@@ -73,8 +74,7 @@ Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why, ui
     c_.rejected++;
   }
   switch (admission) {
-    case IngestLedger::Admission::kDuplicate:
-      return Outcome::kDuplicate;
+    case IngestLedger::Admission::kDuplicate: return Outcome::kDuplicate;
     case IngestLedger::Admission::kHold: {
       // a held batch is checked now (a number damaged in transit must not be held)
       if (PayloadHash(batch) != batch.payload_hash()) {
@@ -87,9 +87,10 @@ Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why, ui
       if (!slot) slot = std::make_unique<TransitionBatch>();
       *slot = batch;
       if (why)
-        *why = fmt::format("actor {} incarnation {:x}: sequence number jumps to {} (expected {}); held until seq {} "
-                           "confirms it",
-                           actor, batch.incarnation(), batch.seq(), expected, batch.seq() + 1);
+        *why = fmt::format(
+            "actor {} incarnation {:x}: sequence number jumps to {} (expected {}); held until seq {} "
+            "confirms it",
+            actor, batch.incarnation(), batch.seq(), expected, batch.seq() + 1);
       return Outcome::kHeld;
     }
     case IngestLedger::Admission::kConfirm: {
@@ -107,8 +108,7 @@ Shard::Outcome Shard::Receive(const TransitionBatch& batch, std::string* why, ui
                        : held_why;
       return o;
     }
-    case IngestLedger::Admission::kNext:
-      break;
+    case IngestLedger::Admission::kNext: break;
   }
   return Store(batch, /*continues=*/true, why);
 }

@@ -13,8 +13,14 @@ namespace {
 std::unique_ptr<TransitionBatch> Batch(uint32_t actor, uint64_t inc, uint64_t seq, uint32_t rows, float base) {
   auto b = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
-  builder.Begin(b.get(), {.actor_id = actor, .incarnation = inc, .seq = seq, .layout_hash = LayoutHash("t", 3, 1, 0),
-                          .state_dim = 3, .action_dim = 1}, 0);
+  builder.Begin(b.get(),
+                {.actor_id = actor,
+                 .incarnation = inc,
+                 .seq = seq,
+                 .layout_hash = LayoutHash("t", 3, 1, 0),
+                 .state_dim = 3,
+                 .action_dim = 1},
+                0);
   for (uint32_t r = 0; r < rows; ++r) {
     float s[3] = {base + r, 7.0f, -1.0f * (r % 2)};
     float a[1] = {float(r % 4)};
@@ -127,10 +133,8 @@ TEST(Shard, AHeaderChangedInTransitFailsTheHash) {
   EXPECT_EQ(shard.Receive(*b), Shard::Outcome::kStored);
   // each header field changed after the hash was taken: rejected, never stored (nor held)
   const std::vector<std::function<void(TransitionBatch&)>> changes = {
-      [](TransitionBatch& x) { x.env_id(5); },
-      [](TransitionBatch& x) { x.episode_base(3); },
-      [](TransitionBatch& x) { x.actor_id(2); },
-      [](TransitionBatch& x) { x.seq(1000); },
+      [](TransitionBatch& x) { x.env_id(5); },      [](TransitionBatch& x) { x.episode_base(3); },
+      [](TransitionBatch& x) { x.actor_id(2); },    [](TransitionBatch& x) { x.seq(1000); },
       [](TransitionBatch& x) { x.incarnation(8); },
   };
   for (size_t i = 0; i < changes.size(); ++i) {
@@ -155,7 +159,8 @@ TEST(Shard, RejectsMalformedAndMismatchedBatches) {
   EXPECT_NE(why.find("non-finite"), std::string::npos);
   auto other = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
-  builder.Begin(other.get(), {.actor_id = 2, .layout_hash = LayoutHash("u", 4, 1, 0), .state_dim = 4, .action_dim = 1}, 0);
+  builder.Begin(other.get(), {.actor_id = 2, .layout_hash = LayoutHash("u", 4, 1, 0), .state_dim = 4, .action_dim = 1},
+                0);
   float s[4] = {0, 0, 0, 0}, a[1] = {0};
   builder.AddRow(s, a, {}, 0, msg::ROW_SEGMENT_START, 0, 0);
   builder.Finish();
@@ -173,7 +178,8 @@ TEST(Shard, RejectsMalformedAndMismatchedBatches) {
 
 TEST(Shard, ChunksDecodeToWhatWasSent) {
   Shard shard(0, Small(100000));
-  for (uint64_t seq = 0; seq < 3; ++seq) ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 50, 100.0f * seq)), Shard::Outcome::kStored);
+  for (uint64_t seq = 0; seq < 3; ++seq)
+    ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 50, 100.0f * seq)), Shard::Outcome::kStored);
   ASSERT_EQ(shard.store().chunks(), 3u);
   std::vector<float> states(50 * 3);
   shard.store().DecodeStates(2, states.data());
@@ -190,7 +196,8 @@ TEST(Shard, ChunksDecodeToWhatWasSent) {
 TEST(Shard, EvictsOldestByTransitionsAndKeepsChecksums) {
   // room for 2000 transitions, batches of 1000 rows (999 transitions): the third evicts the first
   Shard shard(0, Small(2000));
-  for (uint64_t seq = 0; seq < 3; ++seq) ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 1000, float(seq))), Shard::Outcome::kStored);
+  for (uint64_t seq = 0; seq < 3; ++seq)
+    ASSERT_EQ(shard.Receive(*Batch(1, 1, seq, 1000, float(seq))), Shard::Outcome::kStored);
   EXPECT_EQ(shard.store().chunks(), 2u);
   EXPECT_EQ(shard.store().transitions(), 2 * 999);
   EXPECT_EQ(shard.store().chunk(0).seq, 1u);

@@ -89,12 +89,9 @@ class Out {
 void LowerThreadPriority() { setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 10); }
 
 nlohmann::json SnapshotConfig(const ReplayOptions& o) {
-  return {{"capacity", o.capacity},
-          {"capacity_mb", o.capacity_mb},
-          {"min_size", o.min_size},
-          {"samples_per_insert", o.samples_per_insert},
-          {"error_buffer", o.error_buffer},
-          {"priority_exponent", o.priority_exponent}};
+  return {{"capacity", o.capacity},         {"capacity_mb", o.capacity_mb},
+          {"min_size", o.min_size},         {"samples_per_insert", o.samples_per_insert},
+          {"error_buffer", o.error_buffer}, {"priority_exponent", o.priority_exponent}};
 }
 
 std::vector<std::string> ConfigDifferences(const nlohmann::json& snapshot, const ReplayOptions& o) {
@@ -137,26 +134,32 @@ Result<ShardDescription> DescribeShard(std::mutex& mu, const Shard& shard, const
   d.first_id = store.first_id();
   d.end_id = store.end_id();
   RateLimiterCounters rc = limiter.counters();
-  d.meta = {{"shard_id", shard.id()},
-            {"created_unix", std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()},
-            {"command_id", command_id},
-            {"layout_hash", store.layout_hash()},
-            {"state_dim", store.state_dim()},
-            {"action_dim", store.action_dim()},
-            {"goal_dim", store.goal_dim()},
-            {"inserted_transitions", shard.counters().inserted_transitions},
-            {"inserted_batches", shard.counters().inserted_batches},
-            {"rejected", shard.counters().rejected},
-            {"duplicates", shard.ledger().duplicates()},
-            {"gaps", shard.ledger().gaps()},
-            {"seq_jumps", shard.ledger().seq_jumps()},
-            {"rate_inserted", rc.inserted},
-            {"rate_sampled", rc.sampled},
-            {"max_priority", shard.priorities().max_priority()}};
+  d.meta = {
+      {"shard_id", shard.id()},
+      {"created_unix", std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()},
+      {"command_id", command_id},
+      {"layout_hash", store.layout_hash()},
+      {"state_dim", store.state_dim()},
+      {"action_dim", store.action_dim()},
+      {"goal_dim", store.goal_dim()},
+      {"inserted_transitions", shard.counters().inserted_transitions},
+      {"inserted_batches", shard.counters().inserted_batches},
+      {"rejected", shard.counters().rejected},
+      {"duplicates", shard.ledger().duplicates()},
+      {"gaps", shard.ledger().gaps()},
+      {"seq_jumps", shard.ledger().seq_jumps()},
+      {"rate_inserted", rc.inserted},
+      {"rate_sampled", rc.sampled},
+      {"max_priority", shard.priorities().max_priority()}};
   for (const auto& [id, a] : shard.ledger().actors())
-    d.ledger.push_back({{"actor_id", id}, {"incarnation", a.incarnation}, {"next_seq", a.next_seq},
-                        {"batches", a.batches}, {"transitions", a.transitions}, {"checksum", a.checksum},
-                        {"incarnations", a.incarnations}, {"seq_jumps", a.seq_jumps}});
+    d.ledger.push_back({{"actor_id", id},
+                        {"incarnation", a.incarnation},
+                        {"next_seq", a.next_seq},
+                        {"batches", a.batches},
+                        {"transitions", a.transitions},
+                        {"checksum", a.checksum},
+                        {"incarnations", a.incarnations},
+                        {"seq_jumps", a.seq_jumps}});
   return d;
 }
 

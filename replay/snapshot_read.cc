@@ -65,7 +65,8 @@ Status ReadSections(std::ifstream& in, const std::string& name, uint64_t file_si
     static const std::set<std::string> kTags = {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META", "END!"};
     if (reserved != 0 || !kTags.count(tag))
       return Errorf("snapshot {}: section header {} is corrupt", name, img.sections.size());
-    if (length > file_size) return Errorf("snapshot {}: truncated in section '{}' ({} bytes announced)", name, tag, length);
+    if (length > file_size)
+      return Errorf("snapshot {}: truncated in section '{}' ({} bytes announced)", name, tag, length);
     buf.resize(size_t(length));
     if (!in.read(reinterpret_cast<char*>(buf.data()), std::streamsize(length)))
       return Errorf("snapshot {}: truncated in section '{}'", name, tag);
@@ -149,8 +150,14 @@ Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter
   store.SetNextIds(m.value("first_id", uint64_t(0)), m.value("first_row", uint64_t(0)));
   uint64_t offset = 0, row = 0;
   for (const SnapshotChunk& c : img.chunks) {
-    ChunkInfo info{0, int64_t(c.bytes), uint32_t(c.rows), uint32_t(c.transitions), uint32_t(c.deltas),
-                   uint32_t(c.actor), uint32_t(c.env), c.seq};
+    ChunkInfo info{0,
+                   int64_t(c.bytes),
+                   uint32_t(c.rows),
+                   uint32_t(c.transitions),
+                   uint32_t(c.deltas),
+                   uint32_t(c.actor),
+                   uint32_t(c.env),
+                   c.seq};
     info.incarnation = c.incarnation;
     info.episode_base = c.episode_base;
     info.continues = c.continues != 0;

@@ -40,8 +40,7 @@ std::unique_ptr<ReplayService> Open(const ReplayOptions& o, ResumeReport* report
 }
 
 void Fill(ReplayService& s, TestStream& stream, int batches) {
-  for (int i = 0; i < batches; ++i)
-    ASSERT_EQ(s.Insert(*stream.Next(64), 1s), ReplayService::InsertResult::kStored);
+  for (int i = 0; i < batches; ++i) ASSERT_EQ(s.Insert(*stream.Next(64), 1s), ReplayService::InsertResult::kStored);
 }
 
 // xors the byte at `at` of the file with mask
@@ -168,8 +167,8 @@ TEST(Snapshot, StrayFilesWithHugeNumbersAreSkippedAndTheValidOneUsed) {
   ASSERT_TRUE(w.ok()) << w.status().message();
   // a number past 64 bits (std::stoull threw std::out_of_range and the shard aborted), one that
   // fits but is near the top, and names that only look like snapshots
-  for (const char* name : {"shard-0-99999999999999999999999.snap", "shard-0-18446744073709551615.snap",
-                           "shard-0-.snap", "shard-0-12x.snap", "shard-0--5.snap"})
+  for (const char* name : {"shard-0-99999999999999999999999.snap", "shard-0-18446744073709551615.snap", "shard-0-.snap",
+                           "shard-0-12x.snap", "shard-0--5.snap"})
     std::ofstream(dir / name) << "not a snapshot";
   auto listed = ListSnapshots(dir, 0);
   ASSERT_EQ(listed.size(), 2u);

@@ -14,7 +14,7 @@ struct TestRow {
   std::vector<float> state;
   uint16_t flags = 0;
   uint8_t level = 1;
-  std::vector<float> goal;   // goal_dim floats (empty: zeros)
+  std::vector<float> goal;  // goal_dim floats (empty: zeros)
   float reward = 0;
   uint32_t interactions = 0;
   float action = 0;
@@ -30,13 +30,20 @@ struct TestLayout {
 // one batch of the rows (row 0 must carry ROW_SEGMENT_START), stamped with the provenance
 inline std::unique_ptr<TransitionBatch> MakeBatch(const TestLayout& layout, uint32_t actor, uint64_t seq,
                                                   const std::vector<TestRow>& rows,
-                                                  std::vector<uint64_t> policy_versions = {},
-                                                  uint64_t command_seq = 0, uint64_t incarnation = 1) {
+                                                  std::vector<uint64_t> policy_versions = {}, uint64_t command_seq = 0,
+                                                  uint64_t incarnation = 1) {
   auto b = std::make_unique<TransitionBatch>();
   BatchBuilder builder;
-  builder.Begin(b.get(), {.actor_id = actor, .incarnation = incarnation, .seq = seq, .env_id = 0,
-                          .layout_hash = layout.hash(), .state_dim = layout.state_dim, .action_dim = 1,
-                          .goal_dim = layout.goal_dim}, uint32_t(rows.size()));
+  builder.Begin(b.get(),
+                {.actor_id = actor,
+                 .incarnation = incarnation,
+                 .seq = seq,
+                 .env_id = 0,
+                 .layout_hash = layout.hash(),
+                 .state_dim = layout.state_dim,
+                 .action_dim = 1,
+                 .goal_dim = layout.goal_dim},
+                uint32_t(rows.size()));
   for (const TestRow& r : rows) {
     std::vector<float> goal = r.goal;
     goal.resize(layout.goal_dim, 0.0f);

@@ -20,9 +20,17 @@ class TestStream {
   std::unique_ptr<TransitionBatch> Next(uint32_t rows) {
     auto b = std::make_unique<TransitionBatch>();
     BatchBuilder builder;
-    builder.Begin(b.get(), {.actor_id = actor_, .incarnation = incarnation_, .seq = seq_++, .env_id = 0,
-                            .layout_hash = Layout(), .state_dim = 4, .action_dim = 1, .goal_dim = 2,
-                            .episode_base = uint64_t(ep_)}, rows);
+    builder.Begin(b.get(),
+                  {.actor_id = actor_,
+                   .incarnation = incarnation_,
+                   .seq = seq_++,
+                   .env_id = 0,
+                   .layout_hash = Layout(),
+                   .state_dim = 4,
+                   .action_dim = 1,
+                   .goal_dim = 2,
+                   .episode_base = uint64_t(ep_)},
+                  rows);
     auto state = [&] { return std::array<float, 4>{float(t_), float(ep_), float(t_ % 7), float(t_)}; };
     std::array<float, 2> goal{float(ep_), 5.0f};
     float a0[1] = {0};

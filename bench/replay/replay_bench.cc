@@ -18,15 +18,15 @@
 #include <iostream>
 #include <thread>
 
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "actors/actor.h"
 #include "bench/breakout_batches.h"
 #include "bench/replay_shard.h"
+#include "common/cli_checks.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
-#include "common/cli_checks.h"
 #include "common/figures.h"
 #include "common/process.h"
 #include "idl/transitionPubSubTypes.h"
@@ -54,15 +54,16 @@ double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 
 // the transitions/s one shard process stores from `publishers` participants over SHM
 double InsertRate(const Args& a, const DdsOptions& ddso, StatusCollector& collector,
-                  const std::vector<std::unique_ptr<msg::TransitionBatch>>& batches, int publishers, uint32_t actor_base) {
+                  const std::vector<std::unique_ptr<msg::TransitionBatch>>& batches, int publishers,
+                  uint32_t actor_base) {
   std::atomic<bool> stop{false};
   std::vector<std::thread> threads;
   for (int p = 0; p < publishers; ++p) {
     threads.emplace_back([&, p] {
       auto node = dds::Node::Create(ddso, "bench-publisher-" + std::to_string(p));
       if (!node.ok()) return;
-      auto w = (*node)->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(ddso),
-                                                                  dds::ShardPartition(0));
+      auto w = (*node)->MakeWriter<msg::TransitionBatchPubSubType>(
+          dds::kTransitionTopic, dds::TransitionWriterQos(ddso), dds::ShardPartition(0));
       if (!w.ok()) return;
       while (w->matched() == 0 && !stop) std::this_thread::sleep_for(10ms);
       msg::TransitionBatch b;

@@ -13,7 +13,8 @@ constexpr auto kIdlePoll = std::chrono::milliseconds(100);
 Status PrefetchOptions::Validate() const {
   if (depth < 1 || depth > 2) return Errorf("prefetch: depth {} not in [1, 2]", depth);
   if (wait.count() <= 0) return Errorf("prefetch: wait {} ms must be positive", wait.count());
-  if (flush_period.count() < 0) return Errorf("prefetch: flush_period {} ms must not be negative", flush_period.count());
+  if (flush_period.count() < 0)
+    return Errorf("prefetch: flush_period {} ms must not be negative", flush_period.count());
   return Status::Ok();
 }
 
@@ -63,8 +64,8 @@ void PrefetchingSource::Run() {
   for (;;) {
     const auto now = Clock::now();
     const bool room = have_spec_ && !stop_ && ready_.size() < size_t(options_.depth);
-    const bool flush = !queued_.empty() && (stop_ || queued_.keys() >= options_.flush_keys ||
-                                            now >= queued_since_ + options_.flush_period);
+    const bool flush = !queued_.empty() &&
+                       (stop_ || queued_.keys() >= options_.flush_keys || now >= queued_since_ + options_.flush_period);
     if (!room && !flush) {
       if (stop_) return;
       auto wake = now + kIdlePoll;

@@ -30,9 +30,9 @@
 namespace coins {
 
 struct PrefetchOptions {
-  int depth = 1;                           // batches kept ready: 1 or 2
-  std::chrono::milliseconds wait{10000};   // the longest one Sample() call waits for a batch
-  size_t flush_keys = 512;                 // updates are sent once this many keys are queued,
+  int depth = 1;                               // batches kept ready: 1 or 2
+  std::chrono::milliseconds wait{10000};       // the longest one Sample() call waits for a batch
+  size_t flush_keys = 512;                     // updates are sent once this many keys are queued,
   std::chrono::milliseconds flush_period{20};  // or when the oldest has waited this long
   Status Validate() const;
 };
@@ -94,9 +94,9 @@ class PrefetchingSource final : public SampleSource {
   uint64_t thread_generation_ = ~uint64_t(0);
   std::deque<std::unique_ptr<Item>> ready_;
   std::vector<std::unique_ptr<Item>> free_;
-  Updates queued_;   // guarded by mu_
+  Updates queued_;                                      // guarded by mu_
   std::chrono::steady_clock::time_point queued_since_;  // when the oldest queued update came
-  Updates sending_;  // the thread's
+  Updates sending_;                                     // the thread's
   PrefetchStats stats_;
   std::thread thread_;
 };

@@ -69,7 +69,9 @@ void SplitBatch(std::span<const uint64_t> sizes, uint32_t batch, std::vector<uin
 namespace {
 // checks one reply's columns against its own dims; the error names the shard and the column
 Status CheckReply(const msg::SampleReply& r, uint32_t shard) {
-  auto bad = [&](std::string_view what) { return Errorf("replay shard {}: reply {}: {}", shard, r.correlation_id(), what); };
+  auto bad = [&](std::string_view what) {
+    return Errorf("replay shard {}: reply {}: {}", shard, r.correlation_id(), what);
+  };
   if (r.schema_version() != msg::SAMPLING_SCHEMA) return bad(fmt::format("schema_version {}", r.schema_version()));
   if (r.status() != msg::SAMPLE_OK) return bad(fmt::format("status {}: {}", r.status(), r.error()));
   const size_t n = r.n(), F = r.feature_dim();
@@ -80,12 +82,12 @@ Status CheckReply(const msg::SampleReply& r, uint32_t shard) {
   COINS_RETURN_IF_ERROR(sized(r.state().size(), n * F, "state"));
   COINS_RETURN_IF_ERROR(sized(r.action().size(), n * r.action_dim(), "action"));
   COINS_RETURN_IF_ERROR(sized(r.goal().size(), n * r.goal_dim(), "goal"));
-  for (auto [size, column] : {std::pair{r.reward().size(), "reward"}, std::pair{r.discount().size(), "discount"},
-                              std::pair{r.weight().size(), "weight"}, std::pair{r.key().size(), "key"},
-                              std::pair{r.next_end().size(), "next_end"},
-                              std::pair{r.interactions().size(), "interactions"},
-                              std::pair{r.flags().size(), "flags"}, std::pair{r.skill_level().size(), "skill_level"},
-                              std::pair{r.policy_version().size(), "policy_version"}})
+  for (auto [size, column] :
+       {std::pair{r.reward().size(), "reward"}, std::pair{r.discount().size(), "discount"},
+        std::pair{r.weight().size(), "weight"}, std::pair{r.key().size(), "key"},
+        std::pair{r.next_end().size(), "next_end"}, std::pair{r.interactions().size(), "interactions"},
+        std::pair{r.flags().size(), "flags"}, std::pair{r.skill_level().size(), "skill_level"},
+        std::pair{r.policy_version().size(), "policy_version"}})
     COINS_RETURN_IF_ERROR(sized(size, n, column));
   COINS_RETURN_IF_ERROR(sized(r.next_value().size(), r.next_index().size(), "next_value"));
   uint32_t prev = 0;
@@ -131,9 +133,11 @@ Status MergeReplies(std::span<const ShardReply> replies, SampleColumns* out) {
     COINS_RETURN_IF_ERROR(CheckReply(r, s.shard));
     if (r.feature_dim() != first.feature_dim() || r.action_dim() != first.action_dim() ||
         r.goal_dim() != first.goal_dim() || r.state_dim() != first.state_dim())
-      return Errorf("replay shard {}: reply dims state {} / feature {} / action {} / goal {} differ from shard {}'s "
-                    "{} / {} / {} / {}", s.shard, r.state_dim(), r.feature_dim(), r.action_dim(), r.goal_dim(),
-                    replies[0].shard, first.state_dim(), first.feature_dim(), first.action_dim(), first.goal_dim());
+      return Errorf(
+          "replay shard {}: reply dims state {} / feature {} / action {} / goal {} differ from shard {}'s "
+          "{} / {} / {} / {}",
+          s.shard, r.state_dim(), r.feature_dim(), r.action_dim(), r.goal_dim(), replies[0].shard, first.state_dim(),
+          first.feature_dim(), first.action_dim(), first.goal_dim());
     total += r.n();
   }
   out->Resize(total, first.feature_dim(), first.action_dim(), first.goal_dim());

@@ -26,17 +26,17 @@ namespace coins {
 // what to sample: the request's fields (idl/sampling.idl documents each) without the ids
 struct SampleSpec {
   uint8_t strategy = msg::SAMPLE_UNIFORM;
-  int skill_level = -1;                 // -1: any (see level_mask)
-  uint32_t level_mask = 0;              // non-zero: rows whose level L has bit L set
+  int skill_level = -1;     // -1: any (see level_mask)
+  uint32_t level_mask = 0;  // non-zero: rows whose level L has bit L set
   uint32_t n_step = 1;
   float gamma = 0.99f;
   uint8_t her_strategy = msg::HER_NONE;
   float her_ratio = 0.0f;
-  std::vector<float> goal_mask;         // empty: stored goals and rewards, no relabelling
+  std::vector<float> goal_mask;  // empty: stored goals and rewards, no relabelling
   uint32_t target_offset = 0;
   float goal_epsilon = 0.0f;
   uint8_t goal_norm = msg::GOAL_NORM_LINF;
-  std::vector<uint16_t> features;       // state features to return, in order (empty: all)
+  std::vector<uint16_t> features;  // state features to return, in order (empty: all)
   // goal-conditioned rewards (goal_mask not empty); defaults: the paddle skill's -1 / 0
   float step_reward = -1.0f;
   float success_reward = 0.0f;
@@ -50,18 +50,18 @@ struct SampleSpec {
 // a merged batch: n samples, row-major columns
 struct SampleColumns {
   uint32_t n = 0;
-  uint32_t state_dim = 0;       // the shards' full state
-  uint32_t feature_dim = 0;     // columns of state / next_state (the requested features)
+  uint32_t state_dim = 0;    // the shards' full state
+  uint32_t feature_dim = 0;  // columns of state / next_state (the requested features)
   uint32_t action_dim = 0;
   uint32_t goal_dim = 0;
-  std::vector<float> state;       // n x feature_dim
-  std::vector<float> next_state;  // n x feature_dim, decoded
-  std::vector<float> action;      // n x action_dim
-  std::vector<float> goal;        // n x goal_dim (relabelled when hindsight chose so)
-  std::vector<float> reward;      // n, n-step sums
-  std::vector<float> discount;    // n, gamma^k or 0 after a terminal step
-  std::vector<float> weight;      // n, importance weights
-  std::vector<uint64_t> key;      // n, SampleKey(shard, row)
+  std::vector<float> state;              // n x feature_dim
+  std::vector<float> next_state;         // n x feature_dim, decoded
+  std::vector<float> action;             // n x action_dim
+  std::vector<float> goal;               // n x goal_dim (relabelled when hindsight chose so)
+  std::vector<float> reward;             // n, n-step sums
+  std::vector<float> discount;           // n, gamma^k or 0 after a terminal step
+  std::vector<float> weight;             // n, importance weights
+  std::vector<uint64_t> key;             // n, SampleKey(shard, row)
   std::vector<uint32_t> interactions;    // n, ground truth of the sampled step
   std::vector<uint16_t> flags;           // n, ROW_* of the sampled row
   std::vector<uint8_t> skill_level;      // n

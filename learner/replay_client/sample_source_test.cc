@@ -154,7 +154,7 @@ TEST(SampleSource, BatchViewAppendsTheGoal) {
   ASSERT_EQ(b.size(), 2);
   EXPECT_EQ(b.obs(0, 1), 1.0f);
   EXPECT_EQ(b.obs(2, 1), 20.0f);
-  EXPECT_EQ(b.obs(3, 1), -1.0f);       // the goal
+  EXPECT_EQ(b.obs(3, 1), -1.0f);  // the goal
   EXPECT_EQ(b.next_obs(2, 1), 21.0f);
   EXPECT_EQ(b.next_obs(3, 1), -1.0f);  // the same goal
   EXPECT_EQ(b.actions(0, 1), 1.0f);

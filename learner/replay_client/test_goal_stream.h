@@ -56,9 +56,17 @@ class GoalStream {
   std::unique_ptr<TransitionBatch> Next(uint32_t rows) {
     auto b = std::make_unique<TransitionBatch>();
     BatchBuilder builder;
-    builder.Begin(b.get(), {.actor_id = actor_, .incarnation = incarnation_, .seq = seq_, .env_id = 0,
-                            .layout_hash = Layout(), .state_dim = kStateDim, .action_dim = 1, .goal_dim = kGoalDim,
-                            .episode_base = uint64_t(ep_)}, rows);
+    builder.Begin(b.get(),
+                  {.actor_id = actor_,
+                   .incarnation = incarnation_,
+                   .seq = seq_,
+                   .env_id = 0,
+                   .layout_hash = Layout(),
+                   .state_dim = kStateDim,
+                   .action_dim = 1,
+                   .goal_dim = kGoalDim,
+                   .episode_base = uint64_t(ep_)},
+                  rows);
     Add(builder, uint16_t(msg::ROW_SEGMENT_START | (fresh_ ? msg::ROW_EPISODE_START : 0)));
     fresh_ = false;
     for (uint32_t r = 1; r < rows; ++r) {

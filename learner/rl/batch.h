@@ -23,12 +23,12 @@
 namespace coins::rl {
 
 struct Batch {
-  Eigen::MatrixXf obs;        // obs_dim x B
-  Eigen::MatrixXf actions;    // action_dim x B; discrete: 1 x B holding action indices
-  Eigen::MatrixXf rewards;    // 1 x B, n-step discounted reward sums
-  Eigen::MatrixXf next_obs;   // obs_dim x B
-  Eigen::MatrixXf discounts;  // 1 x B, gamma^n or 0 after a terminal state
-  Eigen::MatrixXf weights;    // 1 x B importance weights; all ones for uniform sampling
+  Eigen::MatrixXf obs;         // obs_dim x B
+  Eigen::MatrixXf actions;     // action_dim x B; discrete: 1 x B holding action indices
+  Eigen::MatrixXf rewards;     // 1 x B, n-step discounted reward sums
+  Eigen::MatrixXf next_obs;    // obs_dim x B
+  Eigen::MatrixXf discounts;   // 1 x B, gamma^n or 0 after a terminal state
+  Eigen::MatrixXf weights;     // 1 x B importance weights; all ones for uniform sampling
   std::vector<uint64_t> keys;  // per-sample replay keys for priority updates (may be empty)
 
   int size() const { return int(obs.cols()); }
@@ -42,8 +42,7 @@ class BatchSource {
   // fills batch with batch_size samples; errors when the source cannot (e.g. empty, closed)
   virtual Status Sample(int batch_size, Batch* batch) = 0;
   // priority hook: new priorities (>= 0) for the keys of a sampled batch; default: ignored
-  virtual void UpdatePriorities(std::span<const uint64_t> keys,
-                                std::span<const float> priorities) {}
+  virtual void UpdatePriorities(std::span<const uint64_t> keys, std::span<const float> priorities) {}
 };
 
 inline void Batch::Resize(int obs_dim, int action_dim, int batch) {

@@ -23,23 +23,18 @@ Ddpg::Ddpg(DdpgOptions options) : options_(std::move(options)) {
   const int od = options_.obs_dim, ad = options_.action_dim;
   auto sizes = [&](int in, int out) { return nn::LayerSizes(in, options_.hidden, out); };
   actor_ = nn::Mlp({sizes(od, ad), options_.activation, nn::Activation::kTanh}, options_.seed);
-  critic_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity},
-                    options_.seed + 1);
+  critic_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity}, options_.seed + 1);
   actor_target_ = actor_;
   critic_target_ = critic_;
-  actor_adam_ = nn::Adam({.lr = options_.actor_lr, .clip_norm = options_.grad_clip},
-                         actor_.params().size());
-  critic_adam_ = nn::Adam({.lr = options_.critic_lr, .clip_norm = options_.grad_clip},
-                          critic_.params().size());
+  actor_adam_ = nn::Adam({.lr = options_.actor_lr, .clip_norm = options_.grad_clip}, actor_.params().size());
+  critic_adam_ = nn::Adam({.lr = options_.critic_lr, .clip_norm = options_.grad_clip}, critic_.params().size());
 }
 
 void Ddpg::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) { nn::StackRows(obs, act, &sa_); }
 
-void Ddpg::Act(std::span<const float> obs, bool explore, std::mt19937_64* rng,
-               std::span<float> action) {
+void Ddpg::Act(std::span<const float> obs, bool explore, std::mt19937_64* rng, std::span<float> action) {
   assert(int(obs.size()) == options_.obs_dim && int(action.size()) == options_.action_dim);
-  const Eigen::MatrixXf& mu =
-      actor_.Forward(Eigen::Map<const Eigen::MatrixXf>(obs.data(), obs.size(), 1));
+  const Eigen::MatrixXf& mu = actor_.Forward(Eigen::Map<const Eigen::MatrixXf>(obs.data(), obs.size(), 1));
   for (size_t i = 0; i < action.size(); ++i) action[i] = mu(Eigen::Index(i), 0);
   if (explore) AddGaussianNoise(action, options_.exploration_sigma, -1.0f, 1.0f, rng);
 }
@@ -99,8 +94,7 @@ float Ddpg::ActorLossAndGrad(const Eigen::MatrixXf& obs) {
   act_ = actor_.Forward(obs);
   Concat(obs, act_);
   const float loss = -critic_.Forward(sa_).mean();
-  da_ = critic_.Backward(Eigen::MatrixXf::Constant(1, bs, -1.0f / float(bs)), /*input_grad=*/true)
-            .bottomRows(ad);
+  da_ = critic_.Backward(Eigen::MatrixXf::Constant(1, bs, -1.0f / float(bs)), /*input_grad=*/true).bottomRows(ad);
   actor_.Backward(da_);
   return loss;
 }
@@ -108,8 +102,7 @@ float Ddpg::ActorLossAndGrad(const Eigen::MatrixXf& obs) {
 Result<DdpgStats> Ddpg::Train(BatchSource* source) {
   COINS_RETURN_IF_ERROR(source->Sample(options_.batch_size, &batch_).WithContext("ddpg"));
   DdpgStats stats = Update(batch_, &prio_);
-  if (!batch_.keys.empty())
-    source->UpdatePriorities(batch_.keys, {prio_.data(), size_t(prio_.size())});
+  if (!batch_.keys.empty()) source->UpdatePriorities(batch_.keys, {prio_.data(), size_t(prio_.size())});
   return stats;
 }
 

@@ -24,12 +24,12 @@ struct DdpgOptions {
   int action_dim = 0;
   std::vector<int> hidden = {128, 128, 128, 128, 128, 128};  // the ball skill's MLP 6x128
   nn::Activation activation = nn::Activation::kRelu;
-  float actor_lr = 1e-4f;       // ball skill lr 1e-4
+  float actor_lr = 1e-4f;  // ball skill lr 1e-4
   float critic_lr = 1e-4f;
   float tau = 0.005f;
   float exploration_sigma = 0.1f;  // Gaussian noise std at acting time
   float grad_clip = 0.0f;
-  int batch_size = 128;         // ball skill batch 128
+  int batch_size = 128;  // ball skill batch 128
   uint64_t seed = 0;
   Status Validate() const;
 };

@@ -15,8 +15,7 @@ Status DqnOptions::Validate() const {
   for (int h : hidden)
     if (h <= 0) return Errorf("dqn: hidden size {} must be > 0", h);
   if (distributional && atoms < 2) return Errorf("dqn: atoms {} must be >= 2", atoms);
-  if (distributional && !(v_max > v_min))
-    return Errorf("dqn: v_max {} must exceed v_min {}", v_max, v_min);
+  if (distributional && !(v_max > v_min)) return Errorf("dqn: v_max {} must exceed v_min {}", v_max, v_min);
   if (!(lr > 0.0f)) return Errorf("dqn: lr {} must be > 0", lr);
   if (tau < 0.0f || tau > 1.0f) return Errorf("dqn: tau {} not in [0, 1]", tau);
   if (tau == 0.0f && target_update_period <= 0)
@@ -27,8 +26,9 @@ Status DqnOptions::Validate() const {
 
 Dqn::Dqn(DqnOptions options) : options_(std::move(options)) {
   assert(options_.Validate().ok());
-  const std::vector<int> sizes = nn::LayerSizes(
-      options_.obs_dim, options_.hidden, (options_.dueling ? 1 + options_.num_actions : options_.num_actions) * atoms());
+  const std::vector<int> sizes =
+      nn::LayerSizes(options_.obs_dim, options_.hidden,
+                     (options_.dueling ? 1 + options_.num_actions : options_.num_actions) * atoms());
   online_ = nn::Mlp({sizes, options_.activation, nn::Activation::kIdentity}, options_.seed);
   target_ = online_;
   adam_ = nn::Adam({.lr = options_.lr, .clip_norm = options_.grad_clip}, online_.params().size());
@@ -106,12 +106,10 @@ DqnStats Dqn::LossAndGrad(const Batch& batch) {
     // project the target net's distribution for the next action
     nn::BlockSoftmax(target_head, k, &probs_);
     next_probs_.resize(k, batch_size);
-    for (int b = 0; b < batch_size; ++b)
-      next_probs_.col(b) = probs_.col(b).segment(next_action[size_t(b)] * k, k);
-    nn::ProjectDistribution(next_probs_, batch.rewards, batch.discounts, options_.v_min,
-                            options_.v_max, &target_dist_);
-    stats.loss = nn::CategoricalCrossEntropy(head_, k, batch.actions, target_dist_, batch.weights,
-                                             &dhead_, &per_sample_);
+    for (int b = 0; b < batch_size; ++b) next_probs_.col(b) = probs_.col(b).segment(next_action[size_t(b)] * k, k);
+    nn::ProjectDistribution(next_probs_, batch.rewards, batch.discounts, options_.v_min, options_.v_max, &target_dist_);
+    stats.loss =
+        nn::CategoricalCrossEntropy(head_, k, batch.actions, target_dist_, batch.weights, &dhead_, &per_sample_);
     ToQ(head_, &q_target_);
   } else {
     // Huber loss on r + discount * Q_target(next, a*) - Q(obs, a)
@@ -122,8 +120,7 @@ DqnStats Dqn::LossAndGrad(const Batch& batch) {
     const float delta = options_.huber_delta;
     for (int b = 0; b < batch_size; ++b) {
       const int a = int(batch.actions(0, b));
-      const float y = batch.rewards(0, b) +
-                      batch.discounts(0, b) * target_head(next_action[size_t(b)], b);
+      const float y = batch.rewards(0, b) + batch.discounts(0, b) * target_head(next_action[size_t(b)], b);
       const float td = head_(a, b) - y;
       const float w = batch.weights(0, b);
       const float abs_td = std::abs(td);
@@ -168,8 +165,7 @@ Status Dqn::ImportState(const AlgorithmState& st) {
 Result<DqnStats> Dqn::Train(BatchSource* source) {
   COINS_RETURN_IF_ERROR(source->Sample(options_.batch_size, &batch_).WithContext("dqn"));
   DqnStats stats = Update(batch_, &chosen_);
-  if (!batch_.keys.empty())
-    source->UpdatePriorities(batch_.keys, {chosen_.data(), size_t(chosen_.size())});
+  if (!batch_.keys.empty()) source->UpdatePriorities(batch_.keys, {chosen_.data(), size_t(chosen_.size())});
   return stats;
 }
 

@@ -25,20 +25,20 @@ namespace coins::rl {
 
 struct DqnOptions {
   int obs_dim = 0;
-  int num_actions = 4;                        // the paddle's 4 primitive actions
-  std::vector<int> hidden = {128, 128};       // paddle skill MLP 128-128
+  int num_actions = 4;                   // the paddle's 4 primitive actions
+  std::vector<int> hidden = {128, 128};  // paddle skill MLP 128-128
   nn::Activation activation = nn::Activation::kRelu;
   bool double_q = true;
   bool dueling = true;
   bool distributional = true;
   int atoms = 51;
-  float v_min = -30.0f;                       // paddle: returns in [-30, 0]
+  float v_min = -30.0f;  // paddle: returns in [-30, 0]
   float v_max = 0.0f;
   float lr = 7e-4f;
-  float grad_clip = 10.0f;                    // global gradient-norm clip (0: off)
-  int target_update_period = 1000;            // hard copy every N updates (when tau == 0)
-  float tau = 0.0f;                           // > 0: soft update every update instead
-  float huber_delta = 1.0f;                   // non-distributional loss
+  float grad_clip = 10.0f;          // global gradient-norm clip (0: off)
+  int target_update_period = 1000;  // hard copy every N updates (when tau == 0)
+  float tau = 0.0f;                 // > 0: soft update every update instead
+  float huber_delta = 1.0f;         // non-distributional loss
   int batch_size = 64;
   uint64_t seed = 0;
   Status Validate() const;

@@ -22,7 +22,6 @@ struct LinearSchedule {
 int EpsilonGreedy(const Eigen::Ref<const Eigen::VectorXf>& q, float epsilon, std::mt19937_64* rng);
 
 // action += N(0, sigma^2) per dimension, then clipped to [low, high]
-void AddGaussianNoise(std::span<float> action, float sigma, float low, float high,
-                      std::mt19937_64* rng);
+void AddGaussianNoise(std::span<float> action, float sigma, float low, float high, std::mt19937_64* rng);
 
 }  // namespace coins::rl

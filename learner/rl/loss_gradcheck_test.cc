@@ -21,8 +21,7 @@ Eigen::MatrixXf Random(int rows, int cols, uint64_t seed) {
 }
 
 // relative error of gradient g against central differences of loss over (a sample of) x
-double RelError(Eigen::VectorXf* x, const Eigen::VectorXf& g, const std::function<double()>& loss,
-                float eps) {
+double RelError(Eigen::VectorXf* x, const Eigen::VectorXf& g, const std::function<double()>& loss, float eps) {
   std::mt19937_64 rng(3);
   std::uniform_int_distribution<Eigen::Index> pick(0, x->size() - 1);
   double num = 0.0, den = 0.0;

@@ -77,8 +77,12 @@ struct MemoryReplay::State {
         after(size_t(o.obs_dim + o.goal_dim)),
         no_action(size_t(o.action_dim)) {
     const uint32_t S = uint32_t(o.obs_dim + o.goal_dim), A = uint32_t(o.action_dim), G = uint32_t(o.goal_dim);
-    header = {.actor_id = 0, .incarnation = 1, .layout_hash = LayoutHash("memory-replay", S, A, G),
-              .state_dim = S, .action_dim = A, .goal_dim = G};
+    header = {.actor_id = 0,
+              .incarnation = 1,
+              .layout_hash = LayoutHash("memory-replay", S, A, G),
+              .state_dim = S,
+              .action_dim = A,
+              .goal_dim = G};
     reply.schema_version(msg::SAMPLING_SCHEMA);
   }
   coins::Shard shard;
@@ -111,8 +115,9 @@ Status MemoryReplayOptions::Validate() const {
   if (goal_dim > 0 && her == HerStrategy::kEpisode)
     return Errorf("memory replay: hindsight from the whole episode is not a replay service strategy (final, future)");
   if (goal_dim > 0 && !terminate_on_success)
-    return Errorf("memory replay: terminate_on_success must be true (the replay service ends a window at a "
-                  "reached goal)");
+    return Errorf(
+        "memory replay: terminate_on_success must be true (the replay service ends a window at a "
+        "reached goal)");
   if (prioritized && !(priority_alpha >= 0.0f && priority_beta >= 0.0f && priority_eps > 0.0f))
     return Errorf("memory replay: priority alpha {} and beta {} must be >= 0, eps {} > 0", priority_alpha,
                   priority_beta, priority_eps);

@@ -43,16 +43,16 @@ struct MemoryReplayOptions {
   std::vector<float> goal_mask;  // goal_dim scales of the distance (empty: all ones)
   float goal_epsilon = 0.0f;
   GoalNorm goal_norm = GoalNorm::kL1;
-  float step_reward = -1.0f;     // reward while the goal is not reached
-  float success_reward = 0.0f;   // reward on the step that reaches it
-  bool terminate_on_success = true;  // the service always terminates on success: must be true
+  float step_reward = -1.0f;               // reward while the goal is not reached
+  float success_reward = 0.0f;             // reward on the step that reaches it
+  bool terminate_on_success = true;        // the service always terminates on success: must be true
   HerStrategy her = HerStrategy::kFuture;  // kNone, kFinal or kFuture (the service's strategies)
-  float her_ratio = 0.5f;        // fraction of samples relabelled (the paper's p = 0.5)
+  float her_ratio = 0.5f;                  // fraction of samples relabelled (the paper's p = 0.5)
   // prioritised sampling (the ball skill's alpha 0.2, beta 0.4); new steps get the max priority
   bool prioritized = false;
   float priority_alpha = 0.2f;
   float priority_beta = 0.4f;
-  float priority_eps = 1e-3f;   // added to reported priorities so none is zero
+  float priority_eps = 1e-3f;  // added to reported priorities so none is zero
   uint64_t seed = 0;
   Status Validate() const;
 };

@@ -41,8 +41,7 @@ struct PaddleView {
 float RandomGoal(const PaddleView& view, std::mt19937_64* rng) {
   const int slots = (BreakoutEnv::kPaddleMaxX - BreakoutEnv::kPaddleMinX) / BreakoutEnv::kPaddleStep;
   const int k = std::uniform_int_distribution<int>(0, slots)(*rng);
-  const float x = float(BreakoutEnv::kPaddleMinX + k * BreakoutEnv::kPaddleStep) +
-                  0.5f * float(BreakoutEnv::kPaddleW);
+  const float x = float(BreakoutEnv::kPaddleMinX + k * BreakoutEnv::kPaddleStep) + 0.5f * float(BreakoutEnv::kPaddleW);
   return (x - view.norm.mid()[kX]) / view.norm.half_range()[kX];
 }
 
@@ -51,8 +50,7 @@ Result<PaddleView> MakeView(const envs::EnvSpec& spec) {
   if (f < 0) return Errorf("paddle skill: env '{}' has no Paddle factor", spec.name);
   const envs::FactorSpec& factor = spec.factors[size_t(f)];
   if (factor.features != kPaddleFeatures)
-    return Errorf("paddle skill: Paddle has {} features, expected {}", factor.features,
-                  kPaddleFeatures);
+    return Errorf("paddle skill: Paddle has {} features, expected {}", factor.features, kPaddleFeatures);
   PaddleView view;
   view.offset = spec.factor_offset(f);
   auto norm = nn::Normalizer::FromBounds(factor.low, factor.high);
@@ -90,8 +88,7 @@ Status PaddleSkillOptions::Validate() const {
   if (max_env_steps <= 0) return Errorf("paddle skill: max_env_steps {} must be > 0", max_env_steps);
   if (timeout <= 0) return Errorf("paddle skill: timeout {} must be > 0", timeout);
   if (eval_every <= 0 || eval_goals <= 0)
-    return Errorf("paddle skill: eval_every {} and eval_goals {} must be > 0", eval_every,
-                  eval_goals);
+    return Errorf("paddle skill: eval_every {} and eval_goals {} must be > 0", eval_every, eval_goals);
   if (updates_per_step < 0) return Errorf("paddle skill: updates_per_step must be >= 0");
   DqnOptions d = dqn;
   d.obs_dim = kObsDim;
@@ -181,8 +178,7 @@ Result<PaddleSkillResult> TrainPaddleSkill(const PaddleSkillOptions& options) {
     result.env_steps = step;
     // evaluate
     if (step % options.eval_every == 0) {
-      auto success = Evaluate(&dqn, eval_env.get(), view, options.eval_goals, options.timeout,
-                              &eval_rng);
+      auto success = Evaluate(&dqn, eval_env.get(), view, options.eval_goals, options.timeout, &eval_rng);
       if (!success.ok()) return success.status().WithContext("paddle skill eval");
       result.curve.emplace_back(step, *success);
       result.final_success = *success;

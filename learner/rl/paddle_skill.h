@@ -22,9 +22,9 @@
 namespace coins::rl {
 
 struct PaddleSkillOptions {
-  int64_t max_env_steps = 20000;   // the budget
-  int timeout = 30;                // paddle skill timeout
-  int learning_starts = 1000;      // random steps before updates
+  int64_t max_env_steps = 20000;  // the budget
+  int timeout = 30;               // paddle skill timeout
+  int learning_starts = 1000;     // random steps before updates
   int updates_per_step = 1;
   LinearSchedule epsilon{1.0f, 0.05f, 5000};
   float her_ratio = 0.5f;
@@ -33,16 +33,16 @@ struct PaddleSkillOptions {
   double target_success = 0.95;
   bool stop_at_target = true;
   uint64_t seed = 1;
-  DqnOptions dqn;                  // obs_dim is set by the trainer
+  DqnOptions dqn;  // obs_dim is set by the trainer
   Status Validate() const;
 };
 
 struct PaddleSkillResult {
-  int64_t env_steps = 0;                 // training env steps taken
-  int64_t env_steps_to_target = -1;      // first evaluation at >= target_success, or -1
-  double seconds_to_target = -1.0;       // wall time until then (training + evaluation)
+  int64_t env_steps = 0;             // training env steps taken
+  int64_t env_steps_to_target = -1;  // first evaluation at >= target_success, or -1
+  double seconds_to_target = -1.0;   // wall time until then (training + evaluation)
   double wall_seconds = 0.0;
-  double final_success = 0.0;            // the last evaluation
+  double final_success = 0.0;                     // the last evaluation
   std::vector<std::pair<int64_t, double>> curve;  // (env steps, greedy success)
 };
 

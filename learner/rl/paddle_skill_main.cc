@@ -19,12 +19,18 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (arg == "--json") json = true;
-    else if (arg == "--curve") curve = true;
-    else if (arg == "--seed") options.seed = std::strtoull(value(), nullptr, 10);
-    else if (arg == "--steps") options.max_env_steps = std::strtoll(value(), nullptr, 10);
-    else if (arg == "--eval-every") options.eval_every = std::atoi(value());
-    else if (arg == "--no-stop") options.stop_at_target = false;
+    if (arg == "--json")
+      json = true;
+    else if (arg == "--curve")
+      curve = true;
+    else if (arg == "--seed")
+      options.seed = std::strtoull(value(), nullptr, 10);
+    else if (arg == "--steps")
+      options.max_env_steps = std::strtoll(value(), nullptr, 10);
+    else if (arg == "--eval-every")
+      options.eval_every = std::atoi(value());
+    else if (arg == "--no-stop")
+      options.stop_at_target = false;
     else {
       std::fprintf(stderr,
                    "usage: coins-paddle-skill [--json] [--curve] [--seed N] [--steps N] "

@@ -17,8 +17,8 @@ TEST(PaddleSkill, Reaches95PercentOfRandomGoals) {
   ASSERT_TRUE(result.ok()) << result.status().message();
   for (auto [steps, success] : result->curve)
     std::printf("steps %lld greedy success %.2f\n", static_cast<long long>(steps), success);
-  std::printf("env steps to 95%%: %lld, wall %.1f s\n",
-              static_cast<long long>(result->env_steps_to_target), result->seconds_to_target);
+  std::printf("env steps to 95%%: %lld, wall %.1f s\n", static_cast<long long>(result->env_steps_to_target),
+              result->seconds_to_target);
   EXPECT_GE(result->env_steps_to_target, 0);
   EXPECT_LE(result->env_steps_to_target, 20000);
   EXPECT_GE(result->final_success, 0.95);

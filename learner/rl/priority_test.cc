@@ -2,8 +2,8 @@
 // and importance weights.
 #include <gtest/gtest.h>
 
-#include "learner/rl/memory_replay.h"
 #include "common/sum_tree.h"
+#include "learner/rl/memory_replay.h"
 
 namespace coins::rl {
 namespace {

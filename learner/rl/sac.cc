@@ -18,8 +18,7 @@ Status SacOptions::Validate() const {
     return Errorf("sac: obs_dim {} and action_dim {} must be > 0", obs_dim, action_dim);
   for (int h : hidden)
     if (h <= 0) return Errorf("sac: hidden size {} must be > 0", h);
-  if (!(actor_lr > 0.0f && critic_lr > 0.0f && alpha_lr > 0.0f))
-    return Errorf("sac: learning rates must be > 0");
+  if (!(actor_lr > 0.0f && critic_lr > 0.0f && alpha_lr > 0.0f)) return Errorf("sac: learning rates must be > 0");
   if (!(tau > 0.0f && tau <= 1.0f)) return Errorf("sac: tau {} not in (0, 1]", tau);
   if (!(init_alpha > 0.0f)) return Errorf("sac: init_alpha {} must be > 0", init_alpha);
   if (batch_size <= 0) return Errorf("sac: batch_size {} must be > 0", batch_size);
@@ -30,12 +29,9 @@ Sac::Sac(SacOptions options) : options_(std::move(options)), rng_(options_.seed 
   assert(options_.Validate().ok());
   const int od = options_.obs_dim, ad = options_.action_dim;
   auto sizes = [&](int in, int out) { return nn::LayerSizes(in, options_.hidden, out); };
-  actor_ = nn::Mlp({sizes(od, 2 * ad), options_.activation, nn::Activation::kIdentity},
-                   options_.seed);
-  q1_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity},
-                options_.seed + 1);
-  q2_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity},
-                options_.seed + 2);
+  actor_ = nn::Mlp({sizes(od, 2 * ad), options_.activation, nn::Activation::kIdentity}, options_.seed);
+  q1_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity}, options_.seed + 1);
+  q2_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity}, options_.seed + 2);
   q1_target_ = q1_;
   q2_target_ = q2_;
   const float clip = options_.grad_clip;
@@ -45,14 +41,12 @@ Sac::Sac(SacOptions options) : options_(std::move(options)), rng_(options_.seed 
   log_alpha_.Add("log_alpha", 1, 1);
   log_alpha_.values[0] = std::log(options_.init_alpha);
   alpha_adam_ = nn::Adam({.lr = options_.alpha_lr}, 1);
-  target_entropy_ =
-      std::isnan(options_.target_entropy) ? -float(ad) : options_.target_entropy;
+  target_entropy_ = std::isnan(options_.target_entropy) ? -float(ad) : options_.target_entropy;
 }
 
 void Sac::Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act) { nn::StackRows(obs, act, &sa_); }
 
-void Sac::Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng,
-              std::span<float> action) {
+void Sac::Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng, std::span<float> action) {
   const int ad = options_.action_dim;
   assert(int(obs.size()) == options_.obs_dim && int(action.size()) == ad);
   Eigen::MatrixXf raw = actor_.Forward(Eigen::Map<const Eigen::MatrixXf>(obs.data(), obs.size(), 1));
@@ -75,8 +69,7 @@ SacStats Sac::Update(const Batch& batch) {
   Concat(batch.next_obs, act_);
   q1v_ = q1_target_.Forward(sa_);
   q2v_ = q2_target_.Forward(sa_);
-  y_ = batch.rewards.array() +
-       batch.discounts.array() * (q1v_.cwiseMin(q2v_).array() - alpha * logp_.array());
+  y_ = batch.rewards.array() + batch.discounts.array() * (q1v_.cwiseMin(q2v_).array() - alpha * logp_.array());
 
   // critics: weighted squared TD error
   Concat(batch.obs, batch.actions);
@@ -105,8 +98,7 @@ SacStats Sac::Update(const Batch& batch) {
   return stats;
 }
 
-float Sac::ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise,
-                            float* entropy) {
+float Sac::ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise, float* entropy) {
   const int bs = int(obs.cols()), ad = options_.action_dim;
   const float inv_b = 1.0f / float(bs);
   const float alpha = this->alpha();

@@ -25,16 +25,16 @@ namespace coins::rl {
 struct SacOptions {
   int obs_dim = 0;
   int action_dim = 0;
-  std::vector<int> hidden = {256, 256};   // gripper skill size; the block skill uses 256x4-128
+  std::vector<int> hidden = {256, 256};  // gripper skill size; the block skill uses 256x4-128
   nn::Activation activation = nn::Activation::kRelu;
-  float actor_lr = 2e-4f;                 // block skill lr 2e-4
+  float actor_lr = 2e-4f;  // block skill lr 2e-4
   float critic_lr = 2e-4f;
   float alpha_lr = 2e-4f;
   float tau = 0.005f;
-  float init_alpha = 0.2f;                // the block skill's alpha 0.2
+  float init_alpha = 0.2f;  // the block skill's alpha 0.2
   bool auto_alpha = true;
-  float target_entropy = NAN;             // NaN: -action_dim
-  float grad_clip = 0.0f;                 // 0: no clipping
+  float target_entropy = NAN;  // NaN: -action_dim
+  float grad_clip = 0.0f;      // 0: no clipping
   int batch_size = 256;
   uint64_t seed = 0;
   Status Validate() const;
@@ -52,14 +52,12 @@ class Sac {
   explicit Sac(SacOptions options);  // asserts options.Validate()
 
   // one action in [-1, 1]^action_dim: tanh(mean) when deterministic, else a policy sample
-  void Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng,
-           std::span<float> action);
+  void Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng, std::span<float> action);
   SacStats Update(const Batch& batch);
   // the actor loss mean(alpha log pi(a|s) - min_i Q_i(s, a)) at a = tanh(mean + std * noise)
   // (noise: action_dim x B) and its gradient in actor().params().grads; no step is taken.
   // Writes -mean log pi into entropy when not null.
-  float ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise,
-                         float* entropy = nullptr);
+  float ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise, float* entropy = nullptr);
   Result<SacStats> Train(BatchSource* source);
 
   float alpha() const { return std::exp(log_alpha_.values[0]); }

@@ -26,9 +26,7 @@ struct PointMass {
   void Step(std::span<const float> a) {
     for (int i = 0; i < 2; ++i) pos[i] = std::clamp(pos[i] + kStep * a[size_t(i)], -1.0f, 1.0f);
   }
-  bool Reached() const {
-    return GoalReached({pos, 2}, {goal, 2}, {}, kEps, GoalNorm::kLinf);
-  }
+  bool Reached() const { return GoalReached({pos, 2}, {goal, 2}, {}, kEps, GoalNorm::kLinf); }
 };
 
 template <typename Policy>
@@ -96,8 +94,8 @@ TEST(SacHer, PointMassReachesGoals) {
       ASSERT_TRUE(sac.Train(&replay).ok());
     }
   }
-  const double success = EvalSuccess(
-      [&](std::span<const float> in, std::span<float> a) { sac.Act(in, true, &rng, a); }, 100, 9);
+  const double success =
+      EvalSuccess([&](std::span<const float> in, std::span<float> a) { sac.Act(in, true, &rng, a); }, 100, 9);
   RecordProperty("success", std::to_string(success));
   std::printf("sac+her point-mass greedy success %.2f\n", success);
   EXPECT_GE(success, 0.9);

@@ -91,44 +91,16 @@ class YamlReader final : public ConfigVisitor {
     value = s;
   }
   void FloatList(std::string_view key, std::vector<double>& value, std::string_view) override {
-    YAML::Node n = Take(key);
-    if (!n || !status_.ok()) return;
-    if (!n.IsSequence()) {
-      Fail(key, "expected a list of numbers, got " + Show(n));
-      return;
-    }
-    std::vector<double> parsed;
-    for (const auto& item : n) {
-      double x = 0;
-      if (!item.IsScalar() || !YAML::convert<double>::decode(item, x) || !std::isfinite(x)) {
-        Fail(key, "expected a list of finite numbers, found " + Show(item));
-        return;
-      }
-      parsed.push_back(x);
-    }
-    value = std::move(parsed);
+    ReadList<double>(
+        key, value, "numbers", "finite numbers", [](double x) { return std::isfinite(x); },
+        [](double) { return std::string(); });
   }
   void IntList(std::string_view key, std::vector<int64_t>& value, int64_t min, int64_t max, std::string_view) override {
-    YAML::Node n = Take(key);
-    if (!n || !status_.ok()) return;
-    if (!n.IsSequence()) {
-      Fail(key, "expected a list of integers, got " + Show(n));
-      return;
-    }
-    std::vector<int64_t> parsed;
-    for (const auto& item : n) {
-      int64_t x = 0;
-      if (!item.IsScalar() || !YAML::convert<int64_t>::decode(item, x)) {
-        Fail(key, "expected a list of integers, found " + Show(item));
-        return;
-      }
-      if (x < min || x > max) {
-        Fail(key, fmt::format("entries must be in [{}, {}], got {}", min, max, x));
-        return;
-      }
-      parsed.push_back(x);
-    }
-    value = std::move(parsed);
+    ReadList<int64_t>(
+        key, value, "integers", "integers", [](int64_t) { return true; },
+        [&](int64_t x) {
+          return x < min || x > max ? fmt::format("entries must be in [{}, {}], got {}", min, max, x) : std::string();
+        });
   }
 
   // after visiting: any key of the map not used is unknown
@@ -160,6 +132,33 @@ class YamlReader final : public ConfigVisitor {
       return YAML::Node(YAML::NodeType::Undefined);
     }
     return n;
+  }
+  // a list of T ("expected a list of <kind>"): an item that does not read as T or fails
+  // is_item is "expected a list of <item_kind>, found ..."; range(x) says what else is wrong
+  // with an item ("" when nothing)
+  template <typename T, typename IsItem, typename Range>
+  void ReadList(std::string_view key, std::vector<T>& value, const char* kind, const char* item_kind, IsItem is_item,
+                Range range) {
+    YAML::Node n = Take(key);
+    if (!n || !status_.ok()) return;
+    if (!n.IsSequence()) {
+      Fail(key, fmt::format("expected a list of {}, got {}", kind, Show(n)));
+      return;
+    }
+    std::vector<T> parsed;
+    for (const auto& item : n) {
+      T x{};
+      if (!item.IsScalar() || !YAML::convert<T>::decode(item, x) || !is_item(x)) {
+        Fail(key, fmt::format("expected a list of {}, found {}", item_kind, Show(item)));
+        return;
+      }
+      if (std::string wrong = range(x); !wrong.empty()) {
+        Fail(key, wrong);
+        return;
+      }
+      parsed.push_back(x);
+    }
+    value = std::move(parsed);
   }
   void Fail(std::string_view key, const std::string& what) {
     if (status_.ok()) status_ = Errorf("{}: {}.{}: {}", origin_, where_, key, what);

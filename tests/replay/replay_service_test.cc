@@ -2,6 +2,7 @@
 // client over DDS, the rate limiter across processes, and malformed input.
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <set>
 
@@ -18,6 +19,37 @@ namespace {
 using namespace coins::testing;
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
+
+// a raw transition writer to shard 0 of c, matched (c's one shard started)
+Result<dds::Writer<msg::TransitionBatch>> StartOneShardWithWriter(ReplayCluster& c) {
+  c.shards_n = 1;
+  c.StartShards();
+  c.Join();
+  DdsOptions dds;
+  dds.domain = c.domain;
+  auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
+                                                                   dds::ShardPartition(0));
+  if (writer.ok() && !WaitUntil([&] { return writer->matched() > 0; }, 20s))
+    return Errorf("the writer matched no shard in 20 s");
+  return writer;
+}
+
+// one segment of `rows` rows with state_dim features: feature 0 of row r is first(r), the
+// others are 1, 2, ...
+std::unique_ptr<TransitionBatch> SegmentBatch(const BatchHeader& header, uint32_t rows,
+                                              const std::function<float(uint32_t)>& first) {
+  auto b = std::make_unique<TransitionBatch>();
+  BatchBuilder builder;
+  builder.Begin(b.get(), header, rows);
+  std::vector<float> s(header.state_dim);
+  const float a[1] = {0};
+  for (uint32_t r = 0; r < rows; ++r) {
+    for (uint32_t j = 0; j < header.state_dim; ++j) s[j] = j == 0 ? first(r) : float(j);
+    builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
+  }
+  builder.Finish();
+  return b;
+}
 
 TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   ReplayCluster c{TempDir("replay-sampling"), TestDomain(31)};
@@ -164,32 +196,16 @@ TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {
 // and the shard keeps storing and serving
 TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
   ReplayCluster c{TempDir("replay-malformed"), TestDomain(33)};
-  c.shards_n = 1;
-  c.StartShards();
-  c.Join();
-  DdsOptions dds;
-  dds.domain = c.domain;
-  auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
-                                                                   dds::ShardPartition(0));
-  ASSERT_TRUE(writer.ok());
-  ASSERT_TRUE(WaitUntil([&] { return writer->matched() > 0; }, 20s));
+  auto writer = StartOneShardWithWriter(c);
+  ASSERT_TRUE(writer.ok()) << writer.status().message();
   auto make = [](uint64_t seq) {
-    auto b = std::make_unique<TransitionBatch>();
-    BatchBuilder builder;
-    builder.Begin(b.get(),
-                  {.actor_id = 9,
-                   .incarnation = 5,
-                   .seq = seq,
-                   .layout_hash = LayoutHash("m", 3, 1, 0),
-                   .state_dim = 3,
-                   .action_dim = 1},
-                  16);
-    for (uint32_t r = 0; r < 16; ++r) {
-      float s[3] = {float(seq * 100 + r), 1, 2}, a[1] = {0};
-      builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
-    }
-    builder.Finish();
-    return b;
+    const BatchHeader h{.actor_id = 9,
+                        .incarnation = 5,
+                        .seq = seq,
+                        .layout_hash = LayoutHash("m", 3, 1, 0),
+                        .state_dim = 3,
+                        .action_dim = 1};
+    return SegmentBatch(h, 16, [&](uint32_t r) { return float(seq * 100 + r); });
   };
   auto wrong_size = make(0);
   wrong_size->flags().pop_back();
@@ -261,32 +277,16 @@ TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {
 // between genuine ones: the shard holds it, counts the jump, and stores every genuine batch
 TEST(ReplayService, OneBatchFarAheadDoesNotPoisonTheActorsLaterBatches) {
   ReplayCluster c{TempDir("replay-forged"), TestDomain()};
-  c.shards_n = 1;
-  c.StartShards();
-  c.Join();
-  DdsOptions dds;
-  dds.domain = c.domain;
-  auto writer = c.node->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionWriterQos(dds),
-                                                                   dds::ShardPartition(0));
-  ASSERT_TRUE(writer.ok());
-  ASSERT_TRUE(WaitUntil([&] { return writer->matched() > 0; }, 20s));
+  auto writer = StartOneShardWithWriter(c);
+  ASSERT_TRUE(writer.ok()) << writer.status().message();
   auto make = [](uint64_t seq) {
-    auto b = std::make_unique<TransitionBatch>();
-    BatchBuilder builder;
-    builder.Begin(b.get(),
-                  {.actor_id = 3,
-                   .incarnation = 77,
-                   .seq = seq,
-                   .layout_hash = LayoutHash("f", 2, 1, 0),
-                   .state_dim = 2,
-                   .action_dim = 1},
-                  8);
-    for (uint32_t r = 0; r < 8; ++r) {
-      float s[2] = {float(seq % 1000 + r), 1}, a[1] = {0};
-      builder.AddRow(s, a, {}, 1.0f, r == 0 ? msg::ROW_SEGMENT_START : 0, 0, 0);
-    }
-    builder.Finish();
-    return b;
+    const BatchHeader h{.actor_id = 3,
+                        .incarnation = 77,
+                        .seq = seq,
+                        .layout_hash = LayoutHash("f", 2, 1, 0),
+                        .state_dim = 2,
+                        .action_dim = 1};
+    return SegmentBatch(h, 8, [&](uint32_t r) { return float(seq % 1000 + r); });
   };
   uint64_t sent = 0;
   const uint64_t n = 400;

@@ -15,6 +15,18 @@
 namespace coins {
 namespace {
 
+// keys of earlier versions and where they went, so an old config file's error says where
+std::string MovedKey(const std::string& section_key) {
+  static const std::pair<const char*, const char*> kMoved[] = {
+      {"learner.detect_passive_steps", "detector.passive_steps"},
+      {"learner.detect_active_steps", "detector.active_steps"},
+      {"learner.detect_eps_si", "detector.eps_si"},
+  };
+  for (const auto& [old_key, new_key] : kMoved)
+    if (section_key == old_key) return new_key;
+  return "";
+}
+
 // a map key as a name; keys that are lists, maps or null are not names
 bool KeyName(const YAML::Node& key, std::string* name) {
   if (!key.IsScalar()) return false;
@@ -111,6 +123,8 @@ class YamlReader final : public ConfigVisitor {
       if (!KeyName(kv.first, &key))
         return Errorf("{}: section '{}' has a key that is {}, not a name", origin_, where_, Show(kv.first));
       if (!used_.count(key)) {
+        if (std::string moved = MovedKey(where_ + "." + key); !moved.empty())
+          return Errorf("{}: '{}.{}' is now '{}'", origin_, where_, key, moved);
         std::string hint = ClosestMatch(key, fields_);
         return Errorf("{}: unknown key '{}.{}'{}", origin_, where_, key,
                       hint.empty() ? "" : " (did you mean '" + hint + "'?)");

@@ -53,6 +53,12 @@ TEST_F(Fixture, UnknownKeyNamesKeyAndSuggests) {
   Status s = loader.LoadText("replay:\n  capcity: 7\n", "config x.yaml");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.message(), "config x.yaml: unknown key 'replay.capcity' (did you mean 'capacity'?)");
+  // a key an earlier version had says where it went
+  TestOptions learner;
+  ConfigLoader with_learner({ConfigSection::Of("learner", learner)});
+  EXPECT_EQ(
+      with_learner.ApplyOverride("learner.detect_passive_steps=100").message(),
+      "override learner.detect_passive_steps=100: 'learner.detect_passive_steps' is now 'detector.passive_steps'");
   EXPECT_EQ(opts.capacity, 100);
 }
 

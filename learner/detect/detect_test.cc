@@ -41,11 +41,16 @@ TEST(Transitions, SliceAndEpisodeStarts) {
   EXPECT_NE(bad.status().message().find("--policy"), std::string::npos);
 }
 
+// `steps` steps of random actions in env (collection seed 1)
+Result<TransitionSet> RandomSteps(envs::Env& env, int64_t steps) {
+  CollectOptions co;
+  co.steps = steps;
+  return CollectTransitions(env, co);
+}
+
 TEST(PairDetector, WeightsRoundTripThroughABlob) {
   auto env = envs::MakeEnv("breakout");
-  CollectOptions co;
-  co.steps = 3000;
-  Result<TransitionSet> d = CollectTransitions(**env, co);
+  Result<TransitionSet> d = RandomSteps(**env, 3000);
   ASSERT_TRUE(d.ok());
   DetectorOptions o;
   o.passive_steps = o.passive_hard_steps = 200;
@@ -70,9 +75,7 @@ TEST(PairDetector, WeightsRoundTripThroughABlob) {
 
 TEST(PairDetector, AStopRequestEndsTrainingWithANotReadyError) {
   auto env = envs::MakeEnv("breakout");
-  CollectOptions co;
-  co.steps = 2000;
-  Result<TransitionSet> d = CollectTransitions(**env, co);
+  Result<TransitionSet> d = RandomSteps(**env, 2000);
   ASSERT_TRUE(d.ok());
   DetectorOptions o;
   o.passive_steps = o.active_steps = 10'000'000;  // hours of training unless stopped

@@ -54,15 +54,16 @@ class MemoryBatchSink final : public BatchSink {
 // (bounded, in slices) for a matched shard and for history room, giving up only when
 // `stopping` returns true.
 //
-// Recovery from a stalled stream. Fast DDS 2.9 can keep writing into the shared-memory port of
-// a shard that was killed (-9) and restarted, so the restarted shard never receives anything
-// (upstream fix PR 3759 is not in 2.9). The sink calls the stream stalled when a reader is
-// matched, its writes have found the history full (nothing acknowledged) for dds.writer_stall_s,
-// and the shard's ReplayStats meanwhile show no progress: neither batches of this actor stored
-// nor inserts held back by its rate limiter (a shard that is merely full of work is not
-// stalled). It then replaces its participant (fresh transports, a new writer) and resends the
-// batches it retained (the last dds.transition_history ones): the shard drops those it holds as
-// duplicates and stores the rest, so nothing acknowledged to the actor is lost twice.
+// Recovery from a stalled stream. A shard killed -9 stays matched until its participant lease
+// ends, and the reliable writer waits for its acknowledgements meanwhile; a participant that once
+// wrote to a killed process's shared-memory port may also never reach its successor (the
+// participant ids of common/dds/participant_ids.h avoid that). The sink calls the stream stalled
+// when a reader is matched, its writes have found the history full (nothing acknowledged) for
+// dds.writer_stall_s, and the shard's ReplayStats meanwhile show no progress: neither batches of
+// this actor stored nor inserts held back by its rate limiter (a shard that is merely full of
+// work is not stalled). It then replaces its participant (fresh transports, a new writer) and
+// resends the batches it retained (the last dds.transition_history ones): the shard drops those
+// it holds as duplicates and stores the rest, so nothing acknowledged to the actor is lost twice.
 // Without any ReplayStats, a stream blocked for 10 x writer_stall_s is replaced as well.
 class DdsBatchSink final : public BatchSink {
  public:

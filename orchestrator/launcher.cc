@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "common/cli_checks.h"
+#include "common/dds/participant_ids.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/run_report.h"
@@ -286,6 +287,10 @@ int RunLocal(const RunFlags& flags) {
 
   InstallStopSignals();
   SetupLogging("coins", "warn");
+  // ports that killed processes of an earlier run left on this domain (see participant_ids.h)
+  if (int zombies = dds::RemoveZombieSharedMemoryPorts(int(c.dds.domain)))
+    std::cout << "coins run: removed " << zombies << " shared-memory ports left by killed processes on domain "
+              << c.dds.domain << "\n";
   auto node = dds::Node::Create(c.dds, "coins-run");
   if (!node.ok()) {
     std::cerr << "coins run: " << node.status().message() << "\n";

@@ -45,14 +45,17 @@ Status EnsureDir(const std::string& dir) {
 
 }  // namespace
 
+SharedMemoryPortFiles::SharedMemoryPortFiles(int port)
+    : segment(std::string(kSharedMemoryDir) + "/fastrtps_port" + std::to_string(port)),
+      lock(segment + "_el"),
+      mutex(std::string(kSharedMemoryDir) + "/sem.fastrtps_port" + std::to_string(port) + "_mutex") {}
+
 int RemoveStaleSharedMemoryPorts(int domain) {
   const int base = kPortBase + kDomainGain * domain;
   int removed = 0;
   for (int port = base; port < base + kDomainGain; ++port) {
-    const std::string name = std::string(kSharedMemoryDir) + "/fastrtps_port" + std::to_string(port);
-    for (const std::string& path :
-         {name, name + "_el", std::string(kSharedMemoryDir) + "/sem.fastrtps_port" + std::to_string(port) + "_mutex"})
-      removed += ::unlink(path.c_str()) == 0;
+    const SharedMemoryPortFiles files(port);
+    for (const std::string* path : {&files.segment, &files.lock, &files.mutex}) removed += ::unlink(path->c_str()) == 0;
   }
   return removed;
 }

@@ -24,6 +24,13 @@ inline constexpr int kPortBase = 7400;
 inline constexpr int kDomainGain = 250;
 inline constexpr const char* kSharedMemoryDir = "/dev/shm";
 
+// the files of shared-memory port `port`: its segment, its lock file (held while a participant
+// listens on it) and its mutex
+struct SharedMemoryPortFiles {
+  explicit SharedMemoryPortFiles(int port);
+  std::string segment, lock, mutex;
+};
+
 // Removes the shared-memory port files of `domain`'s ports (fastrtps_portN, its _el lock and
 // its sem.fastrtps_portN_mutex) and returns how many files went. A process killed -9 leaves
 // its ports behind, sometimes with their mutex held; Fast DDS 2.9 then lets a later participant

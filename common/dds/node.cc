@@ -5,6 +5,10 @@
 #include <fastrtps/utils/IPLocator.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
+#include <spdlog/spdlog.h>
+
+#include "common/dds/participant_ids.h"
+
 namespace coins::dds {
 
 using namespace eprosima::fastdds::dds;
@@ -52,16 +56,44 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
     builtin.discovery_config.m_DiscoveryServers.push_back(remote);
   }
 
-  DomainParticipant* p =
-      DomainParticipantFactory::get_instance()->create_participant(static_cast<DomainId_t>(options.domain), qos);
-  if (!p)
+  // an id whose ports no killed process left behind (participant_ids.h)
+  const int domain = static_cast<int>(options.domain);
+  const int id = TakeParticipantId(domain);
+  if (id >= 0) {
+    qos.wire_protocol().participant_id = id;
+  } else {
+    static std::once_flag warned;
+    std::call_once(warned, [&] {
+      spdlog::warn(
+          "dds: every participant id of domain {} is held, some by ports of killed processes; a participant "
+          "restarted there may go unheard (`fastdds shm clean` removes those ports)",
+          domain);
+    });
+  }
+  DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(domain, qos);
+  if (!p) {
+    if (id >= 0) ReleaseParticipantId(domain, id);
     return Errorf("dds: cannot create a participant on domain {} (discovery '{}')", options.domain, options.discovery);
-  return std::unique_ptr<Node>(new Node(options, p));
+  }
+  return std::unique_ptr<Node>(new Node(options, p, id));
 }
 
 Node::~Node() {
+  // Fast DDS 2.9 releases a deleted writer's samples while they are still in its history, and its
+  // periodic heartbeat, walking that history for holes, can then loop forever holding the
+  // writer's lock (seen: an actor replacing a stalled transition writer hung with the heartbeat
+  // thread at 100% CPU). An empty history gives the heartbeat nothing to walk.
+  for (const auto& [partition, publisher] : publishers_) {
+    std::vector<DataWriter*> writers;
+    if (publisher) publisher->get_datawriters(writers);
+    for (DataWriter* w : writers) {
+      size_t removed = 0;
+      w->clear_history(&removed);
+    }
+  }
   participant_->delete_contained_entities();
   DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  if (participant_id_ >= 0) ReleaseParticipantId(static_cast<int>(options_.domain), participant_id_);
 }
 
 Result<Topic*> Node::GetTopic(const std::string& topic, TypeSupport type) {

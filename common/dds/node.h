@@ -160,9 +160,12 @@ class Node {
 
   fdds::DomainParticipant* participant() const { return participant_; }
   const DdsOptions& options() const { return options_; }
+  // the participant id it took (common/dds/participant_ids.h); -1 when Fast DDS chose one
+  int participant_id() const { return participant_id_; }
 
  private:
-  Node(const DdsOptions& options, fdds::DomainParticipant* p) : options_(options), participant_(p) {}
+  Node(const DdsOptions& options, fdds::DomainParticipant* p, int participant_id)
+      : options_(options), participant_(p), participant_id_(participant_id) {}
   Result<fdds::Topic*> GetTopic(const std::string& topic, fdds::TypeSupport type);
   Result<fdds::DataWriter*> CreateWriter(const std::string& topic, fdds::TypeSupport type,
                                          const fdds::DataWriterQos& qos, const std::string& partition);
@@ -171,6 +174,7 @@ class Node {
 
   DdsOptions options_;
   fdds::DomainParticipant* participant_;
+  int participant_id_;  // -1: chosen by Fast DDS
   std::map<std::string, fdds::Topic*> topics_;
   std::map<std::string, fdds::Publisher*> publishers_;
   std::map<std::string, fdds::Subscriber*> subscribers_;

@@ -1,0 +1,35 @@
+// Participant ids that never land on a port a killed process left behind.
+//
+// A participant's id fixes its two unicast ports (metatraffic kPortBase + kDomainGain * d + 10 +
+// 2 * id, user data + 11 + 2 * id) and with them its shared-memory port files
+// /dev/shm/fastrtps_portN. A live port holds a lock file fastrtps_portN_el; a clean close removes
+// it, a process killed -9 leaves it behind unlocked (a "zombie" port).
+//
+// Fast DDS 2.9 gives a process's participants the lowest ids the process has not used, so a
+// restarted process takes the killed one's id. Opening the zombie port then deletes its segment
+// and creates a new one, while every live participant that wrote to the killed process keeps its
+// mapping of the deleted segment and goes on writing there: the restarted process never hears
+// them, discovery included (the actor's stalled transition stream of the replay tests, the
+// upstream fix is not in 2.9). A participant that takes an id whose ports carry no lock file
+// never meets that segment.
+#pragma once
+
+namespace coins::dds {
+
+// ids a participant may take: the unicast initial peers of local discovery reach this many
+inline constexpr int kParticipantIdLimit = 64;
+
+// the lowest id in [0, limit) whose two ports have no lock file on this machine (no live and no
+// killed participant holds them) and that no participant of this process holds; the id is then
+// held until ReleaseParticipantId. -1 when every id is taken (Fast DDS then picks one itself).
+int TakeParticipantId(int domain, int limit = kParticipantIdLimit);
+void ReleaseParticipantId(int domain, int id);
+
+// Removes the port files of `domain` whose lock file is present but unlocked (ports of killed
+// processes), so that killed processes do not use up the ids; live ports are left alone. Only
+// safe when no live process keeps writing to a killed one's port: a launcher calls it before it
+// starts the processes of a run (runs on one machine use distinct domains). Returns the number
+// of ports removed.
+int RemoveZombieSharedMemoryPorts(int domain);
+
+}  // namespace coins::dds

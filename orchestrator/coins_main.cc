@@ -1,6 +1,7 @@
 // coins: the command-line front of the system.
 //   coins run       start a whole run on this machine
 //   coins monitor   live table of a run, from any machine in the DDS domain
+//   coins discovery-server   a DDS discovery server of a cluster
 //   coins bench     print a benchmark's figures
 //   coins env       list, roll out and render environments
 //   coins detect    find interactions between factors from env data
@@ -16,6 +17,7 @@
 #include "learner/detect/detect_cli.h"
 #include "learner/eval_cli.h"
 #include "orchestrator/child_process.h"
+#include "orchestrator/discovery_command.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
 #include "replay/replay_cli.h"
@@ -62,6 +64,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   coins::AddRunCommand(app, &exit_code);
   coins::AddMonitorCommand(app, &exit_code);
+  coins::AddDiscoveryServerCommand(app, &exit_code);
   coins::AddBenchCommand(app, &exit_code);
   coins::envs::AddEnvCommands(app);
   coins::detector::AddDetectCommand(app);

@@ -6,11 +6,13 @@
 #include <fstream>
 #include <iostream>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include <fmt/format.h>
 
 #include "common/cli_checks.h"
+#include "common/dds/discovery.h"
 #include "common/dds/participant_ids.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
@@ -47,27 +49,49 @@ Status PrepareDirectory(const SystemConfig& c, RunPlan* plan, std::string* confi
   std::error_code ec;
   fs::create_directories(fs::path(c.run.dir) / "logs", ec);
   if (ec) return Errorf("cannot create run directory {}: {}", c.run.dir, ec.message());
-  if (plan->resume_epoch < 0) COINS_RETURN_IF_ERROR(ClearPreviousRun(c, plan));
+  if (!plan->resuming) COINS_RETURN_IF_ERROR(ClearPreviousRun(c, plan->roles, plan));
   *config_path = (fs::path(c.run.dir) / "config.yaml").string();
   std::ofstream(*config_path) << plan->effective;
   return Status::Ok();
 }
 
-// shards first so actors find them, then learner and orchestrator, then actors; shards, learner
-// and orchestrator of a resumed run start from the epoch's files (first start only)
-Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& config_path, int64_t resume_epoch) {
+// the discovery servers of dds.discovery_server that listen on an address of this host
+std::vector<int> LocalDiscoveryServers(const SystemConfig& c) {
+  std::vector<int> out;
+  auto servers = dds::ParseServers(c.dds.discovery_server);
+  const std::set<std::string> mine = LocalAddresses();
+  for (size_t i = 0; servers.ok() && i < servers->size(); ++i)
+    if (mine.count((*servers)[i].ip)) out.push_back(int(i));
+  return out;
+}
+
+// discovery servers first, then shards so actors find them, then learner and orchestrator, then
+// actors (of this host's roles); shards, learner and orchestrator of a resumed run start from the
+// epoch's files (first start only)
+Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& config_path, const RunPlan& plan) {
   const std::string bin = SelfDirectory();
+  const RunRoles& roles = plan.roles;
   auto spec = [&](const std::string& binary, const std::string& name, int64_t id, bool resumes) {
     ChildSpec s{name, {bin + "/" + binary, "--config", config_path, "--name", name}, {}, binary == "coins-actor"};
     if (id >= 0) s.argv.insert(s.argv.end(), {"--id", std::to_string(id)});
-    if (resumes && resume_epoch >= 0) s.first_start = {"--resume-epoch", std::to_string(resume_epoch)};
+    if (resumes && plan.resume_epoch >= 0) s.first_start = {"--resume-epoch", std::to_string(plan.resume_epoch)};
     return s;
   };
-  for (int64_t k = 0; k < c.run.shards; ++k)
+  if (roles.Has("discovery")) {
+    const std::vector<int> servers = LocalDiscoveryServers(c);
+    if (servers.empty())
+      return Errorf("no server of dds.discovery_server '{}' has an address of this host", c.dds.discovery_server);
+    for (int i : servers) {
+      ChildSpec s{fmt::format("discovery-{}", i),
+                  {bin + "/coins", "discovery-server", "--config", config_path, "--index", std::to_string(i)}};
+      COINS_RETURN_IF_ERROR(sup.Start(s));
+    }
+  }
+  for (int64_t k : roles.shard_ids)
     COINS_RETURN_IF_ERROR(sup.Start(spec("coins-replay", fmt::format("replay-{}", k), k, true)));
-  COINS_RETURN_IF_ERROR(sup.Start(spec("coins-learner", "learner", -1, true)));
-  COINS_RETURN_IF_ERROR(sup.Start(spec("coins-orchestrator", "orchestrator", -1, true)));
-  for (int64_t i = 0; i < c.run.actors; ++i)
+  if (roles.Has("learner")) COINS_RETURN_IF_ERROR(sup.Start(spec("coins-learner", "learner", -1, true)));
+  if (roles.Has("orchestrator")) COINS_RETURN_IF_ERROR(sup.Start(spec("coins-orchestrator", "orchestrator", -1, true)));
+  for (int64_t i : roles.actor_ids)
     COINS_RETURN_IF_ERROR(sup.Start(spec("coins-actor", fmt::format("actor-{}", i), i, false)));
   return Status::Ok();
 }
@@ -108,9 +132,30 @@ struct RunOutcome {
   bool chain_done = false;  // ChainStatus.phase reached done
 };
 
-// watches children and status until the chain is done, the step budget is reached, a child
-// fails for good, or a stop is requested
-RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemConfig& c, Progress& progress) {
+// transitions the actors `ids` are due to publish (their share of the budget, or what their
+// reports say when that is more) and what the shards stored of them
+std::pair<uint64_t, uint64_t> DueAndStored(const StatusView& view, const SystemConfig& c,
+                                           const std::vector<int64_t>& ids) {
+  const uint64_t share = c.actor.steps ? c.actor.steps : (c.run.steps + c.run.actors - 1) / c.run.actors;
+  uint64_t published = 0, stored = 0;
+  size_t reported = 0;
+  for (int64_t i : ids) {
+    if (auto it = view.actors.find(uint32_t(i)); it != view.actors.end())
+      published += it->second.sample.transitions_published(), ++reported;
+    for (const auto& [k, s] : view.shards)
+      for (const auto& a : s.sample.actors())
+        if (a.actor_id() == uint64_t(i)) stored += a.transitions();
+  }
+  uint64_t due = share * ids.size();
+  if (reported == ids.size()) due = std::max(due, published);
+  return {due, stored};
+}
+
+// watches children and status until the chain is done, this host's actors finished their step
+// budget and the shards hold what they published, a child fails for good, or a stop is
+// requested (a host without actors runs until the chain is done or it is stopped)
+RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemConfig& c, const RunRoles& roles,
+                    Progress& progress) {
   RunOutcome out;
   bool actors_done = false;
   std::chrono::steady_clock::time_point drain_deadline;
@@ -130,21 +175,15 @@ RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemCon
       break;
     }
     // after the actors finish, wait for the shards to hold everything they published
-    if (sup.actors_done() && !actors_done) {
+    if (!roles.actor_ids.empty() && sup.actors_done() && !actors_done) {
       actors_done = true;
       drain_deadline = now + std::chrono::seconds(10);
     }
     if (actors_done) {
       // every actor that finished published at least its share of run.steps (one transition per
       // env step and level stream), and its final report says how many
-      uint64_t expected = uint64_t(c.run.actors) * ((c.run.steps + c.run.actors - 1) / c.run.actors);
-      if (c.actor.steps) expected = uint64_t(c.run.actors) * c.actor.steps;
-      uint64_t published = 0;
-      for (const auto& [id, a] : view.actors) published += a.sample.transitions_published();
-      if (view.actors.size() == size_t(c.run.actors)) expected = std::max(expected, published);
-      uint64_t stored = 0;
-      for (const auto& [id, s] : view.shards) stored += s.sample.inserted_transitions();
-      if (stored >= expected || now > drain_deadline) break;
+      auto [due, stored] = DueAndStored(view, c, roles.actor_ids);
+      if (stored >= due || now > drain_deadline) break;
     }
     progress.Tick(view, sup, now);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -167,7 +206,7 @@ void WaitForFinalEpoch(const SystemConfig& c) {
 
 // the summary (printed and summary.json), learning curves, and the final GIF of a finished chain
 void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup, const SystemConfig& c,
-               bool chain_done) {
+               bool final_gif) {
   namespace fs = std::filesystem;
   nlohmann::json summary = RunSummary(view, progress.elapsed(), sup.restarts());
   std::cout << FormatSummary(summary);
@@ -179,7 +218,7 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
       std::cout << "  learning curve: " << f << "\n";
   }
   std::cout << "  metrics: " << c.run.dir << "/metrics.csv, metrics.jsonl\n";
-  if (chain_done) std::cout << "  " << WriteFinalGif(SelfDirectory() + "/coins", c.run.dir) << "\n";
+  if (final_gif) std::cout << "  " << WriteFinalGif(SelfDirectory() + "/coins", c.run.dir) << "\n";
 }
 
 // a clean stop, actors first: actors and shards get SIGTERM together; an actor publishes its
@@ -195,7 +234,8 @@ void StopRun(std::vector<ChildProcess>& children, const SystemConfig& c) {
   auto is = [](const ChildProcess& p, const char* prefix) { return p.name().rfind(prefix, 0) == 0; };
   auto actor = [&](const ChildProcess& p) { return is(p, "actor-"); };
   auto shard = [&](const ChildProcess& p) { return is(p, "replay-"); };
-  auto other = [&](const ChildProcess& p) { return !actor(p) && !shard(p); };
+  auto discovery = [&](const ChildProcess& p) { return is(p, "discovery-"); };
+  auto other = [&](const ChildProcess& p) { return !actor(p) && !shard(p) && !discovery(p); };
   auto signal = [&](auto member) {
     for (auto& p : children)
       if (member(p) && !p.Poll()) p.Signal(SIGTERM);
@@ -222,11 +262,13 @@ void StopRun(std::vector<ChildProcess>& children, const SystemConfig& c) {
   wait(other, secs(30));  // a learner finishes the detect model it is training (seconds)
   wait(shard, std::max(milliseconds(0), shard_grace - duration_cast<milliseconds>(steady_clock::now() - shards_told)) +
                   secs(5));
+  signal(discovery);  // last: the others found each other through it until they ended
+  wait(discovery, secs(10));
 }
 
-// one line per actor: transitions it published and what the shards stored of them
-void PrintFinalCounts(const StatusView& v, int64_t actors) {
-  for (int64_t i = 0; i < actors; ++i) {
+// one line per actor of this host: transitions it published and what the shards stored of them
+void PrintFinalCounts(const StatusView& v, const std::vector<int64_t>& actors) {
+  for (int64_t i : actors) {
     uint64_t stored = 0;
     bool seen_by_shard = false;
     for (const auto& [id, s] : v.shards)
@@ -266,6 +308,11 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
                   "(its config.yaml; flags may change only operational keys)");
   run->add_option("--set", flags->overrides, "override a config value: section.key=value (repeatable)");
   run->add_flag("--quiet", flags->quiet, "no progress lines");
+  run->add_option("--role", flags->roles,
+                  "this host's share of a cluster run: a comma list of discovery, replay, learner, orchestrator, "
+                  "actors (default: everything; see orchestrator/run_roles.h)");
+  run->add_option("--actor-ids", flags->actor_ids, "the actors of this host, K or A-B (default: all of run.actors)");
+  run->add_option("--shard-ids", flags->shard_ids, "the shards of this host, K or A-B (default: all of run.shards)");
   run->callback([flags, exit_code] { *exit_code = RunLocal(*flags); });
 }
 
@@ -284,6 +331,7 @@ int RunLocal(const RunFlags& flags) {
             << (c.run.steps ? std::to_string(c.run.steps) + " steps" : std::string("until the chain is done"))
             << (plan.resume_epoch >= 0 ? fmt::format(", resuming epoch {}", plan.resume_epoch) : std::string())
             << ", up to " << c.run.max_restarts << " restarts a child; config and logs in " << c.run.dir << "\n";
+  if (!plan.roles.all) std::cout << "coins run: this host runs " << plan.roles.Describe() << "\n";
 
   InstallStopSignals();
   SetupLogging("coins", "warn");
@@ -304,7 +352,7 @@ int RunLocal(const RunFlags& flags) {
 
   Supervisor sup((std::filesystem::path(c.run.dir) / "logs").string(), c.run.max_restarts);
   std::vector<ChildProcess>& children = sup.children();
-  if (Status started = StartChildren(sup, c, config_path, plan.resume_epoch); !started.ok()) {
+  if (Status started = StartChildren(sup, c, config_path, plan); !started.ok()) {
     std::cerr << "coins run: " << started.message() << "\n";
     StopAll(children, std::chrono::seconds(5));
     return 1;
@@ -312,8 +360,8 @@ int RunLocal(const RunFlags& flags) {
   auto metrics = RunMetrics::Open(c.run.dir);
   if (!metrics.ok()) std::cerr << "coins run: " << metrics.status().message() << "\n";
   Progress progress(c, flags.quiet, metrics.ok() ? std::optional<RunMetrics>(std::move(*metrics)) : std::nullopt);
-  RunOutcome outcome = WatchRun(sup, **collector, c, progress);
-  if (outcome.chain_done) WaitForFinalEpoch(c);
+  RunOutcome outcome = WatchRun(sup, **collector, c, plan.roles, progress);
+  if (outcome.chain_done && plan.roles.Has("orchestrator")) WaitForFinalEpoch(c);
   const std::string& failure = outcome.failure;
 
   if (!failure.empty())
@@ -324,15 +372,20 @@ int RunLocal(const RunFlags& flags) {
     std::cout << "coins run: stopping (interrupted)\n";
   StopRun(children, c);
   // the final reports of the last processes may still be on their way
-  auto reported = [&] { return (*collector)->Snapshot().actors.size() >= size_t(c.run.actors); };
+  auto reported = [&] {
+    auto v = (*collector)->Snapshot();
+    for (int64_t i : plan.roles.actor_ids)
+      if (!v.actors.count(uint32_t(i))) return false;
+    return true;
+  };
   for (int i = 0; i < 40 && !reported(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the shards' final stats, sent as they exited
   StatusView view = (*collector)->Snapshot();
   std::cout << progress.Line(view, sup, progress.elapsed()) << "\n";
-  PrintFinalCounts(view, c.run.actors);
+  PrintFinalCounts(view, plan.roles.actor_ids);
   for (const auto& child : children)
     if (!child.succeeded()) std::cout << "  " << child.name() << " " << child.Describe() << "\n";
-  ReportRun(view, progress, sup, c, outcome.chain_done);
+  ReportRun(view, progress, sup, c, outcome.chain_done && plan.roles.Has("learner"));
   return failure.empty() ? 0 : 1;
 }
 

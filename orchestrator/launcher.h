@@ -24,6 +24,8 @@ struct RunFlags {
   std::string resume;  // --resume RUN_DIR: continue that run from its newest complete epoch
   std::vector<std::string> overrides;
   bool quiet = false;  // no progress lines
+  // this host's share of the run (orchestrator/run_roles.h); empty: everything
+  std::string roles, actor_ids, shard_ids;
 };
 
 // adds the `run` subcommand to the coins CLI; its exit code goes to *exit_code

@@ -55,6 +55,14 @@ Result<int64_t> NewestEpoch(const fs::path& chain_dir, const ConfigValues& finge
   return Errorf("no complete checkpoint epoch in {} (nothing to resume from; start a new run)", chain_dir.string());
 }
 
+Status ParseRoles(const RunFlags& f, const SystemConfig& c, RunPlan* plan) {
+  auto roles =
+      RunRoles::Parse(f.roles, f.actor_ids, f.shard_ids, c.run.actors, c.run.shards, c.dds.discovery == "server");
+  if (!roles.ok()) return roles.status();
+  plan->roles = *roles;
+  return Status::Ok();
+}
+
 Status PrepareResume(const RunFlags& f, SystemConfig& c, RunPlan* plan) {
   const std::string dir = f.resume;
   const std::string base_file = (fs::path(dir) / "config.yaml").string();
@@ -71,6 +79,11 @@ Status PrepareResume(const RunFlags& f, SystemConfig& c, RunPlan* plan) {
   COINS_RETURN_IF_ERROR(Load(c, base_file, Overrides(f, dir), &plan->effective));
   std::string diff = FirstDifference(ChainFingerprint(c.Values()), theirs, base_file);
   if (!diff.empty()) return Errorf("the flags change the run's config: {}", diff);
+  plan->resuming = true;
+  COINS_RETURN_IF_ERROR(ParseRoles(f, c, plan));
+  // a host without the orchestrator has no chain state: its processes resume from their own
+  // newest files (shards their snapshots, the learner its checkpoints)
+  if (!plan->roles.Has("orchestrator")) return Status::Ok();
   auto epoch = NewestEpoch(fs::path(dir) / "chain", theirs, &plan->notes);
   if (!epoch.ok()) return epoch.status();
   plan->resume_epoch = *epoch;
@@ -81,13 +94,16 @@ Status PrepareResume(const RunFlags& f, SystemConfig& c, RunPlan* plan) {
 
 Status PrepareRun(const RunFlags& f, SystemConfig& c, RunPlan* plan) {
   if (!f.resume.empty()) return PrepareResume(f, c, plan).WithContext("--resume " + f.resume);
-  return Load(c, f.config, Overrides(f, ""), &plan->effective);
+  COINS_RETURN_IF_ERROR(Load(c, f.config, Overrides(f, ""), &plan->effective));
+  return ParseRoles(f, c, plan);
 }
 
-Status ClearPreviousRun(const SystemConfig& c, RunPlan* plan) {
+Status ClearPreviousRun(const SystemConfig& c, const RunRoles& roles, RunPlan* plan) {
   const fs::path dir(c.run.dir);
-  std::vector<fs::path> old = {dir / "chain", dir / "checkpoints"};
-  if (fs::path(c.replay.snapshot_dir) == dir / "replay") old.push_back(dir / "replay");
+  std::vector<fs::path> old;
+  if (roles.Has("orchestrator")) old.push_back(dir / "chain");
+  if (roles.Has("learner")) old.push_back(dir / "checkpoints");
+  if (roles.Has("replay") && fs::path(c.replay.snapshot_dir) == dir / "replay") old.push_back(dir / "replay");
   std::string removed;
   for (const auto& p : old) {
     std::error_code ec;

@@ -21,6 +21,7 @@
 
 #include "common/status.h"
 #include "orchestrator/launcher.h"
+#include "orchestrator/run_roles.h"
 #include "orchestrator/system_config.h"
 
 namespace coins {
@@ -28,12 +29,15 @@ namespace coins {
 struct RunPlan {
   std::string effective;           // the effective config (YAML), written to RUN_DIR/config.yaml
   int64_t resume_epoch = -1;       // >= 0: resuming this epoch
+  bool resuming = false;           // --resume: the run directory's state is kept
+  RunRoles roles;                  // what this host runs
   std::vector<std::string> notes;  // lines to print before the run starts
 };
 
 // fills c and plan, or returns the one-line reason the run cannot start
 Status PrepareRun(const RunFlags& flags, SystemConfig& c, RunPlan* plan);
 // fresh runs: removes the previous run's chain, default snapshot and checkpoint directories
-Status ClearPreviousRun(const SystemConfig& c, RunPlan* plan);
+// (of the roles this host runs: orchestrator chain/, learner checkpoints/, replay the snapshots)
+Status ClearPreviousRun(const SystemConfig& c, const RunRoles& roles, RunPlan* plan);
 
 }  // namespace coins

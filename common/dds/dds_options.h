@@ -11,12 +11,13 @@ namespace coins {
 struct DdsOptions {
   // DDS domain id; processes of one run share it, concurrent runs must differ
   int64_t domain = 0;
-  // how participants find each other:
-  //   local     - this machine only: UDP on 127.0.0.1 with unicast initial peers, no multicast
-  //   multicast - standard SPDP multicast on every interface (a LAN cluster)
-  //   server    - a discovery server at discovery_server (a cluster across networks)
+  // how participants find each other (common/dds/discovery.h): local (this machine only),
+  // multicast, server (discovery servers at discovery_server) or peers (static peers at peers)
   std::string discovery = "local";
+  // "ip:port[,ip:port]": the discovery server, then its backup
   std::string discovery_server = "127.0.0.1:11811";
+  // "ip[,ip...]": the hosts of a peers-discovery cluster
+  std::string peers;
   // shared-memory transport segment per participant, in MiB (the default 0.5 MiB throttles
   // large samples several-fold)
   int64_t shm_segment_mb = 16;
@@ -30,18 +31,16 @@ struct DdsOptions {
 
   void Visit(ConfigVisitor& v) {
     v.Int("domain", domain, 0, 232, "DDS domain id");
-    v.String("discovery", discovery, {"local", "multicast", "server"}, "discovery mode");
-    v.String("discovery_server", discovery_server, {}, "host:port of the discovery server");
+    v.String("discovery", discovery, {"local", "multicast", "server", "peers"}, "discovery mode");
+    v.String("discovery_server", discovery_server, {}, "ip:port of the discovery server[,ip:port of its backup]");
+    v.String("peers", peers, {}, "ip[,ip...] of the hosts (discovery: peers)");
     v.Int("shm_segment_mb", shm_segment_mb, 1, 1024, "shared-memory segment size (MiB)");
     v.Int("transition_history", transition_history, 2, 4096, "transition writer history (batches)");
     v.Float("lease_s", lease_s, 0.5, 600, "participant lease duration (s)");
     v.Float("writer_stall_s", writer_stall_s, 0.5, 3600, "stalled transition writer replaced after (s)");
   }
-  Status Validate() const {
-    if (discovery == "server" && discovery_server.find(':') == std::string::npos)
-      return Errorf("discovery_server '{}' must be host:port", discovery_server);
-    return Status::Ok();
-  }
+  // the server and peer lists parse, and a mode that needs one has it
+  Status Validate() const;
 };
 
 }  // namespace coins

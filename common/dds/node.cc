@@ -1,21 +1,15 @@
 #include "common/dds/node.h"
 
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
-#include <fastrtps/utils/IPLocator.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
 #include <spdlog/spdlog.h>
 
+#include "common/dds/discovery.h"
 #include "common/dds/participant_ids.h"
 
 namespace coins::dds {
 
 using namespace eprosima::fastdds::dds;
-using eprosima::fastdds::rtps::SharedMemTransportDescriptor;
-using eprosima::fastdds::rtps::UDPv4TransportDescriptor;
-using eprosima::fastrtps::rtps::IPLocator;
-using eprosima::fastrtps::rtps::Locator_t;
 
 eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d) {
   auto ns = d.count() < 0 ? 0 : d.count();
@@ -27,35 +21,18 @@ std::string ShardPartition(int64_t shard) { return "shard-" + std::to_string(sha
 Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std::string& name) {
   DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
-  auto& builtin = qos.wire_protocol().builtin;
-  builtin.discovery_config.leaseDuration =
-      ToDuration(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(options.lease_s)));
-  builtin.discovery_config.leaseDuration_announcementperiod = ToDuration(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(options.lease_s / 4)));
+  COINS_RETURN_IF_ERROR(ConfigureParticipant(options, qos));
+  return Open(options, qos);
+}
 
-  // transports: shared memory with a large segment, plus UDP (loopback only in local mode)
-  qos.transport().use_builtin_transports = false;
-  auto shm = std::make_shared<SharedMemTransportDescriptor>();
-  shm->segment_size(static_cast<uint32_t>(options.shm_segment_mb) * 1024 * 1024);
-  qos.transport().user_transports.push_back(shm);
-  auto udp = std::make_shared<UDPv4TransportDescriptor>();
-  udp->maxInitialPeersRange = 64;
-  if (options.discovery == "local") udp->interfaceWhiteList.push_back("127.0.0.1");
-  qos.transport().user_transports.push_back(udp);
+Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& options, int index) {
+  DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
+  qos.name("discovery-server-" + std::to_string(index));
+  COINS_RETURN_IF_ERROR(ConfigureServer(options, index, qos));
+  return Open(options, qos);
+}
 
-  if (options.discovery == "server") {
-    auto colon = options.discovery_server.rfind(':');
-    Locator_t server;
-    server.kind = LOCATOR_KIND_UDPv4;
-    IPLocator::setIPv4(server, options.discovery_server.substr(0, colon));
-    IPLocator::setPhysicalPort(server, static_cast<uint16_t>(std::stoi(options.discovery_server.substr(colon + 1))));
-    eprosima::fastrtps::rtps::RemoteServerAttributes remote;
-    remote.ReadguidPrefix("44.53.00.5f.45.50.52.4f.53.49.4d.41");
-    remote.metatrafficUnicastLocatorList.push_back(server);
-    builtin.discovery_config.discoveryProtocol = eprosima::fastrtps::rtps::DiscoveryProtocol_t::CLIENT;
-    builtin.discovery_config.m_DiscoveryServers.push_back(remote);
-  }
-
+Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos) {
   // an id whose ports no killed process left behind (participant_ids.h)
   const int domain = static_cast<int>(options.domain);
   const int id = TakeParticipantId(domain);
@@ -73,7 +50,8 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
   DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(domain, qos);
   if (!p) {
     if (id >= 0) ReleaseParticipantId(domain, id);
-    return Errorf("dds: cannot create a participant on domain {} (discovery '{}')", options.domain, options.discovery);
+    return Errorf("dds: cannot create participant '{}' on domain {} (discovery '{}')", qos.name().to_string(),
+                  options.domain, options.discovery);
   }
   return std::unique_ptr<Node>(new Node(options, p, id));
 }

@@ -134,6 +134,8 @@ class Node {
  public:
   // creates the participant; `name` identifies the process in DDS tools
   static Result<std::unique_ptr<Node>> Create(const DdsOptions& options, const std::string& name);
+  // discovery server number `index` of options.discovery_server (common/dds/discovery.h)
+  static Result<std::unique_ptr<Node>> CreateDiscoveryServer(const DdsOptions& options, int index);
   ~Node();
   Node(const Node&) = delete;
   Node& operator=(const Node&) = delete;
@@ -166,6 +168,8 @@ class Node {
  private:
   Node(const DdsOptions& options, fdds::DomainParticipant* p, int participant_id)
       : options_(options), participant_(p), participant_id_(participant_id) {}
+  // creates the participant of `qos` with a participant id of its own
+  static Result<std::unique_ptr<Node>> Open(const DdsOptions& options, fdds::DomainParticipantQos& qos);
   Result<fdds::Topic*> GetTopic(const std::string& topic, fdds::TypeSupport type);
   Result<fdds::DataWriter*> CreateWriter(const std::string& topic, fdds::TypeSupport type,
                                          const fdds::DataWriterQos& qos, const std::string& partition);

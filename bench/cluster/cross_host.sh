@@ -1,0 +1,115 @@
+#!/bin/bash
+# Actor -> replay shard transitions/s between two hosts against inside one host.
+#
+# Two network namespaces on a bridge stand for two hosts, each with a /dev/shm of its own. One
+# actor (random actions, 2 Breakout envs) publishes STEPS transitions to one shard:
+#   shm  - actor and shard on host 1: shared memory
+#   udp  - actor on host 1, shard on host 2: UDP over the bridge (dds.discovery: peers)
+# The figure is transitions stored / the actor's wall time, median of REPEATS runs alternating the
+# modes, and the ratio udp / shm of the medians. Needs root.
+#
+#   bash bench/cluster/cross_host.sh [BUILD_DIR] [STEPS] [REPEATS]
+set -euo pipefail
+BUILD=${1:-build}
+STEPS=${2:-400000}
+REPEATS=${3:-3}
+BIN=$(cd "$BUILD/bin" && pwd)
+TAG=$$
+NET=10.252.$((TAG % 250))
+WORK=$(mktemp -d /tmp/coins-cross-host.XXXXXX)
+DOMAIN=$((200 + TAG % 19))
+
+ns() { echo "coinsb$TAG-h$1"; }
+cleanup() {
+  for h in 1 2; do
+    ip netns pids "$(ns $h)" 2>/dev/null | xargs -r kill -9 || true
+    ip netns del "$(ns $h)" 2>/dev/null || true
+  done
+  ip link del "cbb$TAG" 2>/dev/null || true
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+
+ip link add "cbb$TAG" type bridge
+ip link set "cbb$TAG" up
+for h in 1 2; do
+  ip netns add "$(ns $h)"
+  ip link add "cvb$TAG$h" type veth peer name "cvb$TAG${h}i"
+  ip link set "cvb$TAG${h}i" netns "$(ns $h)"
+  ip link set "cvb$TAG$h" master "cbb$TAG" up
+  ip netns exec "$(ns $h)" ip link set lo up
+  ip netns exec "$(ns $h)" ip addr add "$NET.$h/24" dev "cvb$TAG${h}i"
+  ip netns exec "$(ns $h)" ip link set "cvb$TAG${h}i" up
+done
+
+# on_host H COMMAND...: runs COMMAND on host H with the host's own /dev/shm
+on_host() {
+  local h=$1
+  shift
+  ip netns exec "$(ns "$h")" sh -c 'mount -t tmpfs tmpfs /dev/shm && exec "$@"' sh "$@"
+}
+
+# one measurement; prints transitions/s
+measure() {
+  local mode=$1 shard_host dds
+  if [ "$mode" = shm ]; then
+    shard_host=1
+    dds=(--set dds.discovery=local)
+  else
+    shard_host=2
+    dds=(--set dds.discovery=peers --set "dds.peers=$NET.1,$NET.2")
+  fi
+  local common=(--quiet-config --set "dds.domain=$DOMAIN" "${dds[@]}" --set run.shards=1 --set run.actors=1
+    --set replay.capacity_mb=256 --set actor.follow_chain=false --set actor.envs=2)
+  if [ "$mode" = shm ]; then
+    # one host: both processes in one mount namespace, so they share its /dev/shm
+    on_host 1 sh -c '"$0" --name replay-0 --id 0 --stats-out "$1/replay.json" "${@:3}" > "$1/replay.log" 2>&1 &
+      sleep 1
+      start=$(date +%s.%N)
+      "$2" --name actor-0 --id 0 --set actor.steps='"$STEPS"' --stats-out "$1/actor.json" "${@:3}" > "$1/actor.log" 2>&1
+      end=$(date +%s.%N)
+      echo "$start $end" > "$1/wall"
+      kill -TERM %1; wait' "$BIN/coins-replay" "$WORK" "$BIN/coins-actor" "${common[@]}"
+  else
+    on_host "$shard_host" "$BIN/coins-replay" --name replay-0 --id 0 --stats-out "$WORK/replay.json" "${common[@]}" \
+      > "$WORK/replay.log" 2>&1 &
+    local shard=$!
+    sleep 1
+    local start end
+    start=$(date +%s.%N)
+    on_host 1 "$BIN/coins-actor" --name actor-0 --id 0 --set "actor.steps=$STEPS" --stats-out "$WORK/actor.json" \
+      "${common[@]}" > "$WORK/actor.log" 2>&1
+    end=$(date +%s.%N)
+    echo "$start $end" > "$WORK/wall"
+    kill -TERM $shard
+    wait $shard || true
+  fi
+  python3 - "$WORK" <<'PY'
+import json, sys
+w = sys.argv[1]
+start, end = map(float, open(w + "/wall").read().split())
+shard = json.load(open(w + "/replay.json"))
+actor = json.load(open(w + "/actor.json"))
+stored = sum(a["transitions"] for a in shard["actors"])
+assert stored == actor["transitions_published"], (stored, actor["transitions_published"])
+print(f"{stored / (end - start):.0f}")
+PY
+}
+
+declare -A runs=([shm]="" [udp]="")
+for ((r = 0; r < REPEATS; r++)); do
+  for mode in shm udp; do
+    x=$(measure $mode)
+    runs[$mode]="${runs[$mode]} $x"
+    echo "run $((r + 1)) $mode: $x transitions/s" >&2
+  done
+done
+python3 - "${runs[shm]}" "${runs[udp]}" <<'PY'
+import statistics, sys
+shm = [float(x) for x in sys.argv[1].split()]
+udp = [float(x) for x in sys.argv[2].split()]
+ms, mu = statistics.median(shm), statistics.median(udp)
+print(f"transitions_per_s_shm_one_host {ms:.0f}")
+print(f"transitions_per_s_udp_two_hosts {mu:.0f}")
+print(f"udp_over_shm {mu / ms:.2f}")
+PY

@@ -1,0 +1,172 @@
+// A run across three hosts: three network namespaces on a bridge, each with its own /dev/shm, so
+// the hosts share nothing but UDP. Host 3 runs the discovery servers (a server and its backup)
+// and the orchestrator, host 2 the replay shard and the learner, host 1 the actors; each is one
+// `coins run --role ...`. The test itself joins from the bridge as a fourth host, through the
+// discovery servers, and reads every process's status over DDS. Needs root (CI runs as root).
+#include <signal.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <regex>
+
+#include <fmt/format.h>
+
+#include "common/dds/node.h"
+#include "orchestrator/status_collector.h"
+#include "tests/process_harness.h"
+
+namespace coins {
+namespace {
+
+using namespace coins::testing;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+// three namespaces "coins<pid>-h1..3" with addresses SUBNET.1..3 on bridge "cbr<pid>" (SUBNET.254)
+class Hosts {
+ public:
+  Hosts() : tag_(std::to_string(getpid())), subnet_("10.251." + std::to_string(getpid() % 250)) {}
+  ~Hosts() {
+    for (int h = 1; h <= 3; ++h) {
+      KillAll(h);
+      RunCommand("ip netns del " + Ns(h));
+    }
+    RunCommand("ip link del cbr" + tag_);
+  }
+  // the commands that build the hosts; "" when all of them worked, else what failed
+  std::string Build() {
+    std::vector<std::string> cmds = {"ip link add cbr" + tag_ + " type bridge", "ip link set cbr" + tag_ + " up",
+                                     "ip addr add " + subnet_ + ".254/24 dev cbr" + tag_};
+    for (int h = 1; h <= 3; ++h) {
+      const std::string veth = "cv" + tag_ + "h" + std::to_string(h);
+      cmds.insert(cmds.end(), {"ip netns add " + Ns(h), "ip link add " + veth + " type veth peer name " + veth + "i",
+                               "ip link set " + veth + "i netns " + Ns(h), "ip link set " + veth + " master cbr" + tag_,
+                               "ip link set " + veth + " up", "ip netns exec " + Ns(h) + " ip link set lo up",
+                               "ip netns exec " + Ns(h) + " ip addr add " + Ip(h) + "/24 dev " + veth + "i",
+                               "ip netns exec " + Ns(h) + " ip link set " + veth + "i up"});
+    }
+    for (const auto& c : cmds) {
+      auto r = RunCommand(c, 20s);
+      if (r.code != 0) return c + ": " + r.output;
+    }
+    return "";
+  }
+  std::string Ns(int h) const { return "coins" + tag_ + "-h" + std::to_string(h); }
+  std::string Ip(int h) const { return subnet_ + "." + std::to_string(h); }
+  std::string BridgeIp() const { return subnet_ + ".254"; }
+  // starts `command` on host h with a /dev/shm of its own; output to `log`
+  ChildProcess Start(int h, const std::string& command, const fs::path& log) const {
+    auto c = ChildProcess::Spawn(
+        Ns(h), {"/usr/sbin/ip", "netns", "exec", Ns(h), "sh", "-c", "mount -t tmpfs tmpfs /dev/shm && exec " + command},
+        log.string());
+    EXPECT_TRUE(c.ok()) << c.status().message();
+    return std::move(*c);
+  }
+  // kill -9 of every process of host h
+  void KillAll(int h) const { RunCommand("ip netns pids " + Ns(h) + " | xargs -r kill -9"); }
+
+ private:
+  std::string tag_, subnet_;
+};
+
+// transitions the shards stored of `actor`, as their last ReplayStats say
+uint64_t StoredOf(const StatusView& v, uint32_t actor) {
+  uint64_t n = 0;
+  for (const auto& [id, s] : v.shards)
+    for (const auto& a : s.sample.actors())
+      if (a.actor_id() == actor) n += a.transitions();
+  return n;
+}
+
+TEST(Cluster, ThreeHostsStoreEveryTransitionOnceAndSurviveTheLossOfTheActorHost) {
+  if (geteuid() != 0) GTEST_SKIP() << "network namespaces need root";
+  Hosts hosts;
+  if (std::string failed = hosts.Build(); !failed.empty()) FAIL() << "cannot build the hosts: " << failed;
+  const fs::path dir = TempDir("cluster");
+  const int domain = TestDomain();
+  const std::string servers = hosts.Ip(3) + ":11811," + hosts.Ip(3) + ":11812";
+  const std::string common = Bin("coins") + " run --quiet --actors 2 --shards 1 --set dds.domain=" +
+                             std::to_string(domain) + " --set dds.discovery=server --set dds.discovery_server=" +
+                             servers +
+                             " --set actor.follow_chain=false --set replay.capacity_mb=64"
+                             " --set actor.status_period_s=0.2 --set replay.status_period_s=0.2";
+  auto on = [&](int h) { return common + " --dir " + (dir / ("host" + std::to_string(h))).string(); };
+  ChildProcess h3 = hosts.Start(3, on(3) + " --steps 0 --role discovery,orchestrator", dir / "host3.log");
+  ChildProcess h2 = hosts.Start(2, on(2) + " --steps 0 --role replay,learner", dir / "host2.log");
+
+  // the test joins as a fourth host, from the bridge
+  DdsOptions o;
+  o.domain = domain;
+  o.discovery = "server";
+  o.discovery_server = servers;
+  auto node = dds::Node::Create(o, "cluster-test");
+  ASSERT_TRUE(node.ok()) << node.status().message();
+  auto collector = StatusCollector::Start(**node);
+  ASSERT_TRUE(collector.ok()) << collector.status().message();
+  ASSERT_TRUE(WaitUntil([&] { return (*collector)->Snapshot().shards.count(0) > 0; }, 60s))
+      << "the shard on host 2 was not seen from the bridge; host 2:\n"
+      << ReadText(dir / "host2.log") << "\nhost 3:\n"
+      << ReadText(dir / "host3.log");
+
+  // 1. a step budget: the actor host ends by itself once the shard on host 2 holds everything
+  auto first = RunCommand(
+      "ip netns exec " + hosts.Ns(1) + " sh -c 'mount -t tmpfs tmpfs /dev/shm && exec " + on(1) +
+          " --steps 40000 --role actors'",
+      180s);
+  ASSERT_EQ(first.code, 0) << first.output;
+  for (int a = 0; a < 2; ++a)
+    EXPECT_TRUE(std::regex_search(first.output, std::regex("actor-" + std::to_string(a) +
+                                                           R"(: (\d+) transitions published, \1 stored \(all stored\))")))
+        << first.output;
+  // exactly once: per actor, the shard's count and payload checksum are the actor's own
+  StatusView v = (*collector)->Snapshot();
+  for (uint32_t a = 0; a < 2; ++a) {
+    ASSERT_TRUE(v.actors.count(a)) << "no status of actor " << a;
+    const auto& sent = v.actors.at(a).sample;
+    EXPECT_GE(sent.transitions_published(), 20000u);
+    bool found = false;
+    for (const auto& [id, s] : v.shards)
+      for (const auto& got : s.sample.actors())
+        if (got.actor_id() == a) {
+          found = true;
+          EXPECT_EQ(got.transitions(), sent.transitions_published()) << "actor " << a;
+          EXPECT_EQ(got.payload_checksum(), sent.payload_checksum()) << "actor " << a;
+        }
+    EXPECT_TRUE(found) << "the shard has no ledger of actor " << a;
+  }
+
+  // 2. the actor host runs unbounded, loses every process at once (kill -9), and is started
+  // again: the shard takes the restarted actors' data and hosts 2 and 3 never noticed
+  ChildProcess h1 = hosts.Start(1, on(1) + " --steps 0 --role actors", dir / "host1.log");
+  const uint64_t before = StoredOf((*collector)->Snapshot(), 0);
+  ASSERT_TRUE(WaitUntil([&] { return StoredOf((*collector)->Snapshot(), 0) > before + 5000; }, 60s))
+      << ReadText(dir / "host1.log");
+  hosts.KillAll(1);
+  ASSERT_TRUE(h1.WaitFor(10s));
+  std::this_thread::sleep_for(1s);
+  const uint64_t at_kill = StoredOf((*collector)->Snapshot(), 0);
+  ChildProcess again = hosts.Start(1, on(1) + " --steps 0 --role actors", dir / "host1-again.log");
+  EXPECT_TRUE(WaitUntil([&] { return StoredOf((*collector)->Snapshot(), 0) > at_kill + 5000; }, 60s))
+      << "the restarted actors' data did not reach host 2: " << ReadText(dir / "host1-again.log");
+  EXPECT_FALSE(h2.Poll()) << "host 2 ended: " << ReadText(dir / "host2.log");
+  EXPECT_FALSE(h3.Poll()) << "host 3 ended: " << ReadText(dir / "host3.log");
+
+  // a clean stop, actor host first: every host's `coins run` ends with 0
+  for (ChildProcess* p : {&again, &h2, &h3}) {
+    p->Signal(SIGTERM);
+    EXPECT_TRUE(p->WaitFor(90s)) << p->Describe();
+    EXPECT_TRUE(p->succeeded()) << p->Describe();
+  }
+  for (int server = 0; server < 2; ++server) {
+    const std::string log = ReadText(dir / "host3" / "logs" / fmt::format("discovery-{}.log", server));
+    EXPECT_NE(log.find(fmt::format("server {} of domain {} listening on {}:{}", server, domain, hosts.Ip(3),
+                                   11811 + server)),
+              std::string::npos)
+        << log;
+  }
+}
+
+}  // namespace
+}  // namespace coins

@@ -61,29 +61,22 @@ measure() {
   fi
   local common=(--quiet-config --set "dds.domain=$DOMAIN" "${dds[@]}" --set run.shards=1 --set run.actors=1
     --set replay.capacity_mb=256 --set actor.follow_chain=false --set actor.envs=2)
-  if [ "$mode" = shm ]; then
-    # one host: both processes in one mount namespace, so they share its /dev/shm
-    on_host 1 sh -c '"$0" --name replay-0 --id 0 --stats-out "$1/replay.json" "${@:3}" > "$1/replay.log" 2>&1 &
-      sleep 1
-      start=$(date +%s.%N)
-      "$2" --name actor-0 --id 0 --set actor.steps='"$STEPS"' --stats-out "$1/actor.json" "${@:3}" > "$1/actor.log" 2>&1
-      end=$(date +%s.%N)
-      echo "$start $end" > "$1/wall"
-      kill -TERM %1; wait' "$BIN/coins-replay" "$WORK" "$BIN/coins-actor" "${common[@]}"
-  else
-    on_host "$shard_host" "$BIN/coins-replay" --name replay-0 --id 0 --stats-out "$WORK/replay.json" "${common[@]}" \
-      > "$WORK/replay.log" 2>&1 &
-    local shard=$!
-    sleep 1
-    local start end
-    start=$(date +%s.%N)
-    on_host 1 "$BIN/coins-actor" --name actor-0 --id 0 --set "actor.steps=$STEPS" --stats-out "$WORK/actor.json" \
-      "${common[@]}" > "$WORK/actor.log" 2>&1
-    end=$(date +%s.%N)
-    echo "$start $end" > "$WORK/wall"
-    kill -TERM $shard
-    wait $shard || true
-  fi
+  # shm: both processes on host 1 in its namespace's one /dev/shm (the machine's); udp: the shard
+  # on host 2, each host with a /dev/shm of its own
+  local run_shard=(on_host "$shard_host") run_actor=(on_host 1)
+  if [ "$mode" = shm ]; then run_shard=(ip netns exec "$(ns 1)") run_actor=(ip netns exec "$(ns 1)"); fi
+  "${run_shard[@]}" "$BIN/coins-replay" --name replay-0 --id 0 --stats-out "$WORK/replay.json" "${common[@]}" \
+    > "$WORK/replay.log" 2>&1 &
+  local shard=$!
+  sleep 1
+  local start end
+  start=$(date +%s.%N)
+  "${run_actor[@]}" "$BIN/coins-actor" --name actor-0 --id 0 --set "actor.steps=$STEPS" \
+    --stats-out "$WORK/actor.json" "${common[@]}" > "$WORK/actor.log" 2>&1
+  end=$(date +%s.%N)
+  echo "$start $end" > "$WORK/wall"
+  kill -TERM $shard
+  wait $shard || true
   python3 - "$WORK" <<'PY'
 import json, sys
 w = sys.argv[1]

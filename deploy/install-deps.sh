@@ -18,6 +18,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev clang-format-14
   # learning-curve PNGs of `coins run` (gnuplot without X11)
   gnuplot-nox
+  # the cluster test's network namespaces (ip netns), and the DDS Security certificates
+  iproute2 openssl
 )
 
 missing=()

@@ -11,7 +11,7 @@ if ! command -v "$tool" > /dev/null; then
   exit 1
 fi
 if git rev-parse --is-inside-work-tree > /dev/null 2>&1; then
-  mapfile -t files < <(git ls-files '*.cc' '*.h')
+  mapfile -t files < <(git ls-files --cached --others --exclude-standard '*.cc' '*.h')
 else
   mapfile -t files < <(find . -path './build*' -prune -o -type f \( -name '*.cc' -o -name '*.h' \) -print)
 fi

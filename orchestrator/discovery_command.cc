@@ -56,8 +56,8 @@ int RunDiscoveryServer(const DiscoveryFlags& f) {
 
 void AddDiscoveryServerCommand(CLI::App& app, int* exit_code) {
   auto flags = std::make_shared<DiscoveryFlags>();
-  CLI::App* d = app.add_subcommand(
-      "discovery-server", "Run a DDS discovery server of dds.discovery_server (for dds.discovery: server).");
+  CLI::App* d = app.add_subcommand("discovery-server",
+                                   "Run a DDS discovery server of dds.discovery_server (for dds.discovery: server).");
   d->add_option("--config", flags->config, "YAML config file (its dds section is used)")->check(CLI::ExistingFile);
   d->add_option("--set", flags->overrides, "override a config value: dds.key=value (repeatable)");
   d->add_option("--index", flags->index, "which entry of dds.discovery_server: 0 the server, 1 its backup")

@@ -40,8 +40,7 @@ Result<std::vector<int64_t>> ParseIds(const std::string& flag, const std::string
 }  // namespace
 
 Result<RunRoles> RunRoles::Parse(const std::string& role_list, const std::string& actor_ids,
-                                 const std::string& shard_ids, int64_t actors, int64_t shards,
-                                 bool discovery_server) {
+                                 const std::string& shard_ids, int64_t actors, int64_t shards, bool discovery_server) {
   RunRoles r;
   r.all = role_list.empty();
   if (r.all) {

@@ -87,9 +87,9 @@ TEST(Cluster, ThreeHostsStoreEveryTransitionOnceAndSurviveTheLossOfTheActorHost)
   const fs::path dir = TempDir("cluster");
   const int domain = TestDomain();
   const std::string servers = hosts.Ip(3) + ":11811," + hosts.Ip(3) + ":11812";
-  const std::string common = Bin("coins") + " run --quiet --actors 2 --shards 1 --set dds.domain=" +
-                             std::to_string(domain) + " --set dds.discovery=server --set dds.discovery_server=" +
-                             servers +
+  const std::string common = Bin("coins") +
+                             " run --quiet --actors 2 --shards 1 --set dds.domain=" + std::to_string(domain) +
+                             " --set dds.discovery=server --set dds.discovery_server=" + servers +
                              " --set actor.follow_chain=false --set replay.capacity_mb=64"
                              " --set actor.status_period_s=0.2 --set replay.status_period_s=0.2";
   auto on = [&](int h) { return common + " --dir " + (dir / ("host" + std::to_string(h))).string(); };
@@ -111,14 +111,14 @@ TEST(Cluster, ThreeHostsStoreEveryTransitionOnceAndSurviveTheLossOfTheActorHost)
       << ReadText(dir / "host3.log");
 
   // 1. a step budget: the actor host ends by itself once the shard on host 2 holds everything
-  auto first = RunCommand(
-      "ip netns exec " + hosts.Ns(1) + " sh -c 'mount -t tmpfs tmpfs /dev/shm && exec " + on(1) +
-          " --steps 40000 --role actors'",
-      180s);
+  auto first = RunCommand("ip netns exec " + hosts.Ns(1) + " sh -c 'mount -t tmpfs tmpfs /dev/shm && exec " + on(1) +
+                              " --steps 40000 --role actors'",
+                          180s);
   ASSERT_EQ(first.code, 0) << first.output;
   for (int a = 0; a < 2; ++a)
-    EXPECT_TRUE(std::regex_search(first.output, std::regex("actor-" + std::to_string(a) +
-                                                           R"(: (\d+) transitions published, \1 stored \(all stored\))")))
+    EXPECT_TRUE(std::regex_search(
+        first.output,
+        std::regex("actor-" + std::to_string(a) + R"(: (\d+) transitions published, \1 stored \(all stored\))")))
         << first.output;
   // exactly once: per actor, the shard's count and payload checksum are the actor's own
   StatusView v = (*collector)->Snapshot();
@@ -161,9 +161,9 @@ TEST(Cluster, ThreeHostsStoreEveryTransitionOnceAndSurviveTheLossOfTheActorHost)
   }
   for (int server = 0; server < 2; ++server) {
     const std::string log = ReadText(dir / "host3" / "logs" / fmt::format("discovery-{}.log", server));
-    EXPECT_NE(log.find(fmt::format("server {} of domain {} listening on {}:{}", server, domain, hosts.Ip(3),
-                                   11811 + server)),
-              std::string::npos)
+    EXPECT_NE(
+        log.find(fmt::format("server {} of domain {} listening on {}:{}", server, domain, hosts.Ip(3), 11811 + server)),
+        std::string::npos)
         << log;
   }
 }

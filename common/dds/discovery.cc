@@ -6,10 +6,10 @@
 #include <memory>
 #include <sstream>
 
-#include <fmt/format.h>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
+#include <fmt/format.h>
 
 #include "common/dds/node.h"
 
@@ -54,9 +54,7 @@ Locator_t UdpLocator(const Endpoint& e) {
 }
 
 // the GUID prefix Fast DDS tools give server `index` ("44.53.<index>.5f.45.50.52.4f.53.49.4d.41")
-std::string ServerPrefix(int index) {
-  return fmt::format("44.53.{:02x}.5f.45.50.52.4f.53.49.4d.41", index);
-}
+std::string ServerPrefix(int index) { return fmt::format("44.53.{:02x}.5f.45.50.52.4f.53.49.4d.41", index); }
 
 RemoteServerAttributes RemoteServer(const Endpoint& e, int index) {
   RemoteServerAttributes remote;

@@ -7,6 +7,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "common/dds/security.h"
+
 namespace coins {
 
 namespace {
@@ -79,6 +81,7 @@ int ProcessMain::Parse(int argc, char** argv) {
     return 2;
   }
   if (name_.empty()) name_ = binary_;
+  dds_.identity = dds::IdentityOfBinary(binary_);  // a coins process is what it is
   SetupLogging(name_, log_level_);
   if (!quiet_config_) spdlog::info("effective config:\n{}", loader.Dump());
   InstallStopSignals();

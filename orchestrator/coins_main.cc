@@ -2,6 +2,7 @@
 //   coins run       start a whole run on this machine
 //   coins monitor   live table of a run, from any machine in the DDS domain
 //   coins discovery-server   a DDS discovery server of a cluster
+//   coins security init      the certificates and permissions of a secured run
 //   coins bench     print a benchmark's figures
 //   coins env       list, roll out and render environments
 //   coins detect    find interactions between factors from env data
@@ -20,6 +21,7 @@
 #include "orchestrator/discovery_command.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
+#include "orchestrator/security_command.h"
 #include "replay/replay_cli.h"
 
 namespace coins {
@@ -65,6 +67,7 @@ int main(int argc, char** argv) {
   coins::AddRunCommand(app, &exit_code);
   coins::AddMonitorCommand(app, &exit_code);
   coins::AddDiscoveryServerCommand(app, &exit_code);
+  coins::AddSecurityCommand(app, &exit_code);
   coins::AddBenchCommand(app, &exit_code);
   coins::envs::AddEnvCommands(app);
   coins::detector::AddDetectCommand(app);

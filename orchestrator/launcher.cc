@@ -339,7 +339,9 @@ int RunLocal(const RunFlags& flags) {
   if (int zombies = dds::RemoveZombieSharedMemoryPorts(int(c.dds.domain)))
     std::cout << "coins run: removed " << zombies << " shared-memory ports left by killed processes on domain "
               << c.dds.domain << "\n";
-  auto node = dds::Node::Create(c.dds, "coins-run");
+  DdsOptions operator_dds = c.dds;
+  if (operator_dds.identity.empty()) operator_dds.identity = "operator";
+  auto node = dds::Node::Create(operator_dds, "coins-run");
   if (!node.ok()) {
     std::cerr << "coins run: " << node.status().message() << "\n";
     return 1;

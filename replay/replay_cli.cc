@@ -75,6 +75,7 @@ void RunSnapshot(const SnapshotFlags& f) {
   if (!s.ok()) cli::Fail(cmd, s.message(), 2);
   const int64_t want = f.shards > 0 ? f.shards : (f.target == "replay" || f.target == "all" ? run.shards : 1);
   SetupLogging("coins-snapshot", "warn");
+  if (dds.identity.empty()) dds.identity = "operator";
   auto node = dds::Node::Create(dds, "coins-snapshot");
   if (!node.ok()) cli::Fail(cmd, node.status().message(), 1);
   auto writer = (*node)->MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos());

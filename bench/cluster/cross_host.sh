@@ -5,8 +5,10 @@
 # actor (random actions, 2 Breakout envs) publishes STEPS transitions to one shard:
 #   shm  - actor and shard on host 1: shared memory
 #   udp  - actor on host 1, shard on host 2: UDP over the bridge (dds.discovery: peers)
+#   udp_secured - as udp with DDS Security (authentication, access control, AES-GCM encryption;
+#          `coins security init`)
 # The figure is transitions stored / the actor's wall time, median of REPEATS runs alternating the
-# modes, and the ratio udp / shm of the medians. Needs root.
+# modes, and the ratios of the medians to shm. Needs root.
 #
 #   bash bench/cluster/cross_host.sh [BUILD_DIR] [STEPS] [REPEATS]
 set -euo pipefail
@@ -59,6 +61,7 @@ measure() {
     shard_host=2
     dds=(--set dds.discovery=peers --set "dds.peers=$NET.1,$NET.2")
   fi
+  if [ "$mode" = udp_secured ]; then dds+=(--set "dds.security=$WORK/security"); fi
   local common=(--quiet-config --set "dds.domain=$DOMAIN" "${dds[@]}" --set run.shards=1 --set run.actors=1
     --set replay.capacity_mb=256 --set actor.follow_chain=false --set actor.envs=2)
   # shm: both processes on host 1 in its namespace's one /dev/shm (the machine's); udp: the shard
@@ -89,20 +92,22 @@ print(f"{stored / (end - start):.0f}")
 PY
 }
 
-declare -A runs=([shm]="" [udp]="")
+"$BIN/coins" security init "$WORK/security" > /dev/null
+declare -A runs=([shm]="" [udp]="" [udp_secured]="")
 for ((r = 0; r < REPEATS; r++)); do
-  for mode in shm udp; do
+  for mode in shm udp udp_secured; do
     x=$(measure $mode)
     runs[$mode]="${runs[$mode]} $x"
     echo "run $((r + 1)) $mode: $x transitions/s" >&2
   done
 done
-python3 - "${runs[shm]}" "${runs[udp]}" <<'PY'
+python3 - "${runs[shm]}" "${runs[udp]}" "${runs[udp_secured]}" <<'PY'
 import statistics, sys
-shm = [float(x) for x in sys.argv[1].split()]
-udp = [float(x) for x in sys.argv[2].split()]
-ms, mu = statistics.median(shm), statistics.median(udp)
+shm, udp, sec = ([float(x) for x in a.split()] for a in sys.argv[1:4])
+ms, mu, mc = statistics.median(shm), statistics.median(udp), statistics.median(sec)
 print(f"transitions_per_s_shm_one_host {ms:.0f}")
 print(f"transitions_per_s_udp_two_hosts {mu:.0f}")
+print(f"transitions_per_s_udp_secured_two_hosts {mc:.0f}")
 print(f"udp_over_shm {mu / ms:.2f}")
+print(f"udp_secured_over_shm {mc / ms:.2f}")
 PY

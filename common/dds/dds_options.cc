@@ -12,6 +12,10 @@ Status DdsOptions::Validate() const {
   if (!hosts.ok()) return hosts.status().WithContext("peers");
   if (discovery == "server" && servers->empty()) return Errorf("discovery 'server' needs a discovery_server");
   if (discovery == "peers" && hosts->empty()) return Errorf("discovery 'peers' needs the peers' addresses");
+  if (!security.empty() && discovery == "server")
+    return Errorf(
+        "security with discovery 'server' is not supported by Fast DDS 2.9 (it came in 2.10): a secured run "
+        "discovers by static peers (discovery: peers) or multicast");
   return Status::Ok();
 }
 

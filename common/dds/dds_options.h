@@ -18,6 +18,12 @@ struct DdsOptions {
   std::string discovery_server = "127.0.0.1:11811";
   // "ip[,ip...]": the hosts of a peers-discovery cluster
   std::string peers;
+  // a directory made by `coins security init` turns on DDS Security (common/dds/security.h);
+  // "" runs unsecured
+  std::string security;
+  // the role a participant authenticates as when secured, for tools and tests: the coins processes
+  // use their own (coins run and coins snapshot "operator", coins monitor "monitor" when empty)
+  std::string identity;
   // shared-memory transport segment per participant, in MiB (the default 0.5 MiB throttles
   // large samples several-fold)
   int64_t shm_segment_mb = 16;
@@ -34,6 +40,8 @@ struct DdsOptions {
     v.String("discovery", discovery, {"local", "multicast", "server", "peers"}, "discovery mode");
     v.String("discovery_server", discovery_server, {}, "ip:port of the discovery server[,ip:port of its backup]");
     v.String("peers", peers, {}, "ip[,ip...] of the hosts (discovery: peers)");
+    v.String("security", security, {}, "DDS Security directory (coins security init), empty: unsecured");
+    v.String("identity", identity, {}, "security role of this process (empty: its own)");
     v.Int("shm_segment_mb", shm_segment_mb, 1, 1024, "shared-memory segment size (MiB)");
     v.Int("transition_history", transition_history, 2, 4096, "transition writer history (batches)");
     v.Float("lease_s", lease_s, 0.5, 600, "participant lease duration (s)");

@@ -6,6 +6,7 @@
 
 #include "common/dds/discovery.h"
 #include "common/dds/participant_ids.h"
+#include "common/dds/security.h"
 
 namespace coins::dds {
 
@@ -22,6 +23,7 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
   DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   COINS_RETURN_IF_ERROR(ConfigureParticipant(options, qos));
+  COINS_RETURN_IF_ERROR(ApplySecurity(options, name, qos));
   return Open(options, qos);
 }
 

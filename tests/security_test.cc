@@ -1,0 +1,144 @@
+// DDS Security across real processes: `coins security init`, a secured shard and actor, and what
+// participants without an identity or without a permission can and cannot do.
+#include <gtest/gtest.h>
+
+#include <thread>
+
+#include "common/dds/node.h"
+#include "common/dds/qos.h"
+#include "common/dds/topics.h"
+#include "idl/controlPubSubTypes.h"
+#include "idl/transitionPubSubTypes.h"
+#include "tests/replay/replay_cluster.h"
+
+namespace coins {
+namespace {
+
+using namespace coins::testing;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+// a test participant on `domain`: secured as `identity` with the set-up in `dir`, or plain
+std::unique_ptr<dds::Node> Participant(int domain, const fs::path& dir, const std::string& identity) {
+  DdsOptions o;
+  o.domain = domain;
+  if (!identity.empty()) o.security = dir.string(), o.identity = identity;
+  auto n = dds::Node::Create(o, "security-test-" + (identity.empty() ? std::string("plain") : identity));
+  EXPECT_TRUE(n.ok()) << n.status().message();
+  return n.ok() ? std::move(*n) : nullptr;
+}
+
+fs::path InitSecurity(const fs::path& base) {
+  const fs::path dir = base / "security";
+  auto r = RunCommand(Bin("coins") + " security init " + dir.string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  return dir;
+}
+
+TEST(Security, InitWritesACaIdentitiesAndSignedDocuments) {
+  const fs::path base = TempDir("security-init");
+  const fs::path dir = InitSecurity(base);
+  for (const char* role : {"actor", "replay", "learner", "orchestrator", "monitor", "operator"}) {
+    for (const std::string f :
+         {std::string(role) + ".pem", std::string(role) + ".key", std::string(role) + "-permissions.p7s"})
+      EXPECT_TRUE(fs::exists(dir / f)) << f;
+    auto v = RunCommand("openssl verify -CAfile " + (dir / "ca.pem").string() + " " +
+                        (dir / (std::string(role) + ".pem")).string());
+    EXPECT_EQ(v.code, 0) << v.output;
+    auto s = RunCommand("openssl smime -verify -in " + (dir / (std::string(role) + "-permissions.p7s")).string() +
+                        " -CAfile " + (dir / "ca.pem").string() + " -out /dev/null");
+    EXPECT_EQ(s.code, 0) << s.output;
+  }
+  // a second init does not overwrite the keys a run uses
+  auto again = RunCommand(Bin("coins") + " security init " + dir.string());
+  EXPECT_NE(again.code, 0);
+  EXPECT_NE(again.output.find("already holds a security set-up"), std::string::npos) << again.output;
+}
+
+TEST(Security, ASecuredRunStoresDataAndOutsidersSeeAndStopNothing) {
+  ReplayCluster c{TempDir("security-run"), TestDomain()};
+  const fs::path dir = InitSecurity(c.dir);
+  c.shards_n = 1;
+  c.actors_n = 1;
+  const std::vector<std::string> secured = {"--set", "dds.security=" + dir.string()};
+  c.StartShards(secured);
+  c.actors_n = 1;
+  // the actors of the harness take no extra flags: start this one by hand, secured
+  auto argv = c.Common("coins-actor", "actor-0", 0);
+  argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=0", "--set", "run.steps=0",
+                           "--set", "dds.security=" + dir.string()});
+  auto actor = ChildProcess::Spawn("actor-0", argv, (c.dir / "actor-0.log").string());
+  ASSERT_TRUE(actor.ok());
+  c.actors.push_back(std::move(*actor));
+
+  // a monitor identity reads the status
+  auto monitor = Participant(c.domain, dir, "monitor");
+  ASSERT_TRUE(monitor);
+  auto watch = StatusCollector::Start(*monitor);
+  ASSERT_TRUE(watch.ok()) << watch.status().message();
+  auto stored = [&] {
+    auto v = (*watch)->Snapshot();
+    return v.shards.count(0) ? v.shards.at(0).sample.inserted_transitions() : uint64_t(0);
+  };
+  ASSERT_TRUE(WaitUntil([&] { return stored() > 5000; }, 60s))
+      << "nothing stored in the secured run: " << ReadText(c.dir / "replay-0.log") << ReadText(c.dir / "actor-0.log");
+
+  // a participant without an identity discovers nothing of the run ...
+  auto outsider = Participant(c.domain, dir, "");
+  ASSERT_TRUE(outsider);
+  auto outside_view = StatusCollector::Start(*outsider);
+  ASSERT_TRUE(outside_view.ok());
+  // ... and its Control STOP to everyone is ignored
+  auto stop = outsider->MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos());
+  ASSERT_TRUE(stop.ok());
+  msg::Control cmd;
+  cmd.schema_version(msg::CONTROL_SCHEMA);
+  cmd.target("all");
+  cmd.command(msg::CONTROL_STOP);
+  for (int i = 0; i < 30; ++i) {
+    cmd.command_id(uint64_t(1000 + i));
+    stop->Write(cmd);
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_EQ(stop->matched(), 0);
+  auto v = (*outside_view)->Snapshot();
+  EXPECT_TRUE(v.shards.empty() && v.actors.empty()) << "an identity-less participant saw the run";
+  const uint64_t after_stop = stored();
+  EXPECT_TRUE(WaitUntil([&] { return stored() > after_stop + 2000; }, 20s)) << "the run stopped";
+  EXPECT_FALSE(c.shards[0].Poll()) << c.shards[0].Describe();
+  EXPECT_FALSE(c.actors[0].Poll()) << c.actors[0].Describe();
+
+  // valid identities without the permission cannot write Control or transitions
+  auto control_of = [&](dds::Node& n) {
+    return n.MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos()).ok();
+  };
+  EXPECT_FALSE(control_of(*monitor));
+  auto actor_identity = Participant(c.domain, dir, "actor");
+  ASSERT_TRUE(actor_identity);
+  EXPECT_FALSE(control_of(*actor_identity));
+  EXPECT_FALSE(monitor
+                   ->MakeWriter<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::StatusWriterQos(),
+                                                                dds::ShardPartition(0))
+                   .ok());
+  auto operator_identity = Participant(c.domain, dir, "operator");
+  ASSERT_TRUE(operator_identity);
+  EXPECT_TRUE(control_of(*operator_identity));
+}
+
+TEST(Security, UnsupportedOrIncompleteSetUpsAreRefusedBeforeStarting) {
+  const fs::path base = TempDir("security-refused");
+  const fs::path dir = InitSecurity(base);
+  auto r = RunCommand(Bin("coins") + " run --steps 10 --dir " + (base / "run").string() +
+                      " --set dds.security=" + dir.string() + " --set dds.discovery=server");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("not supported by Fast DDS 2.9"), std::string::npos) << r.output;
+  fs::remove(dir / "replay-permissions.p7s");
+  auto shard = RunCommand(Bin("coins-replay") + " --quiet-config --set dds.domain=" + std::to_string(TestDomain()) +
+                              " --set dds.security=" + dir.string(),
+                          30s);
+  EXPECT_NE(shard.code, 0);
+  EXPECT_NE(shard.output.find("replay-permissions.p7s is missing"), std::string::npos) << shard.output;
+}
+
+}  // namespace
+}  // namespace coins

@@ -79,8 +79,10 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
   };
   if (roles.Has("discovery")) {
     const std::vector<int> servers = LocalDiscoveryServers(c);
-    if (servers.empty())
-      return Errorf("no server of dds.discovery_server '{}' has an address of this host", c.dds.discovery_server);
+    // asked for by --role: this host must serve; a whole run may use servers elsewhere
+    if (servers.empty() && !roles.all)
+      return Errorf("--role discovery: no server of dds.discovery_server '{}' has an address of this host",
+                    c.dds.discovery_server);
     for (int i : servers) {
       ChildSpec s{fmt::format("discovery-{}", i),
                   {bin + "/coins", "discovery-server", "--config", config_path, "--index", std::to_string(i)}};

@@ -178,7 +178,9 @@ TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {
   auto blocked = Clock::now() - t0;
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.message().find("rate limiter"), std::string::npos) << s.message();
-  EXPECT_GE(blocked, 1500ms);
+  // four waits of 375 ms make 1.5 s; a loaded machine once measured 0.4 ms short of that exact
+  // sum, so the bound leaves a little room
+  EXPECT_GE(blocked, 1400ms);
   EXPECT_LT(blocked, 3s);
 
   // data arrives: a waiting request is released within the second timeout

@@ -66,7 +66,7 @@ void FillStats(const ReplayService::View& v, double insert_rate, msg::ReplayStat
 }
 
 // the final stats; `v` adds what ReplayStats does not carry (sequence jumps, held batches)
-nlohmann::json StatsJson(const msg::ReplayStats& s, const ReplayService::View& v) {
+nlohmann::json StatsJson(const msg::ReplayStats& s, const ReplayService::View& v, uint64_t refused_participants) {
   nlohmann::json actors = nlohmann::json::array();
   for (const auto& a : s.actors()) {
     auto it = v.actors.find(a.actor_id());
@@ -96,6 +96,7 @@ nlohmann::json StatsJson(const msg::ReplayStats& s, const ReplayService::View& v
           {"corrupt_snapshots", s.corrupt_snapshots()},
           {"seq_jumps", v.seq_jumps},
           {"held_batches", v.held},
+          {"refused_participants", refused_participants},
           {"actors", actors}};
 }
 
@@ -214,8 +215,9 @@ class ShardProcess {
   }
 
  private:
-  // stores one batch; the rate limiter may hold it (a stop releases the limiter)
-  void Store(const msg::TransitionBatch& b) {
+  // stores one batch; the rate limiter may hold it (a stop releases the limiter). A batch the
+  // shard rejects, holds or drops is logged with the writer that sent it.
+  void Store(const msg::TransitionBatch& b, const dds::fdds::SampleInfo& info) {
     std::string why;
     auto r = service_.Insert(b, 100ms, &why);
     while (r == ReplayService::InsertResult::kTimedOut) {
@@ -224,10 +226,11 @@ class ShardProcess {
     }
     last_batch_ = std::chrono::steady_clock::now();
     if (!why.empty() && notes_logged_++ < 50) {
+      const std::string sender = dds::PublisherOf(info);
       if (r == ReplayService::InsertResult::kRejected)
-        spdlog::warn("rejected: {}", why);
+        spdlog::warn("rejected: {} (writer {})", why, sender);
       else
-        spdlog::warn("{}", why);
+        spdlog::warn("{} (writer {})", why, sender);
     }
   }
 
@@ -238,7 +241,7 @@ class ShardProcess {
     msg::TransitionBatch scratch;
     last_batch_ = std::chrono::steady_clock::now();
     auto take = [&] {
-      return t_.batches.TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto&) { Store(b); });
+      return t_.batches.TakeAll(scratch, [&](const msg::TransitionBatch& b, const auto& info) { Store(b, info); });
     };
     while (!StopRequested())
       if (t_.batches.Wait(50ms)) take();
@@ -348,13 +351,15 @@ class ShardProcess {
 };
 
 // the final ReplayStats: published, written to --stats-out, and logged
-void ReportFinalStats(ReplayService& service, Topics& t, msg::ReplayStats& stats, const std::string& stats_out) {
+void ReportFinalStats(ReplayService& service, Topics& t, const dds::Node& node, msg::ReplayStats& stats,
+                      const std::string& stats_out) {
   auto final_view = service.Stats(true);
   FillStats(final_view, 0.0, stats);
   t.stats.Write(stats);
   t.stats.WaitAcked(500ms);
   if (!stats_out.empty()) {
-    if (Status s = WriteFileAtomic(stats_out, StatsJson(stats, final_view).dump() + "\n"); !s.ok())
+    if (Status s = WriteFileAtomic(stats_out, StatsJson(stats, final_view, node.refused_participants()).dump() + "\n");
+        !s.ok())
       spdlog::warn("{}", s.message());
   }
   spdlog::info(
@@ -362,6 +367,8 @@ void ReportFinalStats(ReplayService& service, Topics& t, msg::ReplayStats& stats
       "unconfirmed), {} rejected, {} samples served",
       stats.inserted_transitions(), stats.inserted_batches(), stats.duplicates(), stats.gaps(), final_view.seq_jumps,
       final_view.held, stats.rejected(), stats.samples_served());
+  if (!node.options().security.empty())
+    spdlog::info("dds security: {} participants refused", node.refused_participants());
   for (const auto& [actor, a] : final_view.actors)
     spdlog::info("actor {}: {} transitions in {} batches stored (next seq {})", actor, a.transitions, a.batches,
                  a.next_seq);
@@ -406,7 +413,7 @@ int ReplayMain(int argc, char** argv) {
   stats.restored_transitions(resume.transitions);
   stats.corrupt_snapshots(resume.corrupt.size());
   ShardProcess(id, main.name(), options, **service, *dds->node, *topics).Run(dds->heartbeat, stats);
-  ReportFinalStats(**service, *topics, stats, stats_out);
+  ReportFinalStats(**service, *topics, *dds->node, stats, stats_out);
   return 0;
 }
 

@@ -13,8 +13,6 @@
 
 namespace coins::dds {
 
-inline constexpr char kPriorityUpdateTopic[] = "coins.sample.priority";  // PriorityUpdate
-
 inline eprosima::fastdds::dds::DataWriterQos SamplingWriterQos(int depth) {
   namespace f = eprosima::fastdds::dds;
   f::DataWriterQos q = f::DATAWRITER_QOS_DEFAULT;

@@ -2,11 +2,13 @@
 // participants without an identity or without a permission can and cannot do.
 #include <gtest/gtest.h>
 
+#include <sstream>
 #include <thread>
 
 #include "common/dds/node.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/transition_batch.h"
 #include "idl/controlPubSubTypes.h"
 #include "idl/transitionPubSubTypes.h"
 #include "tests/replay/replay_cluster.h"
@@ -123,6 +125,116 @@ TEST(Security, ASecuredRunStoresDataAndOutsidersSeeAndStopNothing) {
   auto operator_identity = Participant(c.domain, dir, "operator");
   ASSERT_TRUE(operator_identity);
   EXPECT_TRUE(control_of(*operator_identity));
+}
+
+// the GUID prefix of a participant as the shard's log lines print it
+std::string PrefixOf(dds::Node& n) {
+  std::ostringstream out;
+  out << n.participant()->guid().guidPrefix;
+  return out.str();
+}
+
+// the forged-batch attack against a secured run: an actor's key reads no transitions to copy,
+// and an outsider neither reads the stream nor gets a batch numbered 1e9 ahead or a Control STOP
+// into it. Every secured process refuses the outsider, counts it and names it in its log; the
+// shard stores exactly what the actor sent.
+TEST(Security, ForgedBatchesAndControlAreRefusedCountedAndNamed) {
+  ReplayCluster c{TempDir("security-forged"), TestDomain()};
+  const fs::path dir = InitSecurity(c.dir);
+  c.shards_n = 1;
+  c.actors_n = 1;
+  c.StartShards({"--set", "dds.security=" + dir.string()});
+  auto argv = c.Common("coins-actor", "actor-0", 0);
+  argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=0", "--set", "run.steps=0",
+                           "--set", "actor.batch_rows=64", "--set", "dds.security=" + dir.string()});
+  auto actor = ChildProcess::Spawn("actor-0", argv, (c.dir / "actor-0.log").string());
+  ASSERT_TRUE(actor.ok());
+  c.actors.push_back(std::move(*actor));
+  auto monitor = Participant(c.domain, dir, "monitor");
+  ASSERT_TRUE(monitor);
+  auto watch = StatusCollector::Start(*monitor);
+  ASSERT_TRUE(watch.ok()) << watch.status().message();
+  auto stored = [&] {
+    auto v = (*watch)->Snapshot();
+    return v.shards.count(0) ? v.shards.at(0).sample.inserted_transitions() : uint64_t(0);
+  };
+  ASSERT_TRUE(WaitUntil([&] { return stored() > 2000; }, 60s)) << ReadText(c.dir / "replay-0.log");
+
+  // an actor's key may write transitions but not read them: no copy to re-number
+  auto insider = Participant(c.domain, dir, "actor");
+  ASSERT_TRUE(insider);
+  DdsOptions qos_of;
+  EXPECT_FALSE(insider
+                   ->MakeReader<msg::TransitionBatchPubSubType>(dds::kTransitionTopic, dds::TransitionReaderQos(qos_of),
+                                                                dds::ShardPartition(0))
+                   .ok());
+
+  // an outsider listens for batches to copy ...
+  {
+    auto eavesdropper = Participant(c.domain, dir, "");
+    ASSERT_TRUE(eavesdropper);
+    auto copies = eavesdropper->MakeReader<msg::TransitionBatchPubSubType>(
+        dds::kTransitionTopic, dds::TransitionReaderQos(qos_of), dds::ShardPartition(0));
+    ASSERT_TRUE(copies.ok());
+    int copied = 0;
+    for (int i = 0; i < 20; ++i) {
+      copies->Wait(100ms);
+      copied += copies->TakeAll([](const msg::TransitionBatch&, const auto&) {});
+    }
+    EXPECT_EQ(copied, 0) << "an outsider read transitions";
+    EXPECT_EQ(copies->matched(), 0);
+  }
+  // ... and sends a batch numbered 1e9 ahead and a STOP
+  auto outsider = Participant(c.domain, dir, "");
+  ASSERT_TRUE(outsider);
+  auto forged_out = outsider->MakeWriter<msg::TransitionBatchPubSubType>(
+      dds::kTransitionTopic, dds::TransitionWriterQos(qos_of), dds::ShardPartition(0));
+  auto stop = outsider->MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos());
+  ASSERT_TRUE(forged_out.ok() && stop.ok());
+  msg::TransitionBatch forged;
+  forged.schema_version(msg::TRANSITION_BATCH_SCHEMA);
+  forged.actor_id(0);
+  forged.incarnation(1);
+  forged.seq(1'000'000'000ull);
+  forged.payload_hash(PayloadHash(forged));
+  msg::Control cmd;
+  cmd.schema_version(msg::CONTROL_SCHEMA);
+  cmd.target("all");
+  cmd.command(msg::CONTROL_STOP);
+  cmd.command_id(77);
+  for (int i = 0; i < 30; ++i, std::this_thread::sleep_for(100ms)) {
+    forged_out->Write(forged);
+    stop->Write(cmd);
+  }
+  EXPECT_EQ(forged_out->matched() + stop->matched(), 0);
+  const uint64_t after = stored();
+  EXPECT_TRUE(WaitUntil([&] { return stored() > after + 2000; }, 20s)) << "the run stopped";
+  EXPECT_FALSE(c.shards[0].Poll()) << "the STOP stopped the shard: " << c.shards[0].Describe();
+  EXPECT_FALSE(c.actors[0].Poll()) << "the STOP stopped the actor: " << c.actors[0].Describe();
+
+  // a clean stop of the actor publishes its last batches and waits for the shard to hold them
+  c.actors[0].Signal(SIGTERM);
+  ASSERT_TRUE(c.actors[0].WaitFor(30s)) << "the actor did not stop";
+  ASSERT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
+  StopAll(c.shards, 20s);
+  ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
+  auto sent = ReadJson(c.dir / "actor-0.json");
+  auto shard = ReadJson(c.dir / "replay-0.json");
+  ASSERT_FALSE(sent.is_null());
+  ASSERT_FALSE(shard.is_null());
+  ASSERT_EQ(shard["actors"].size(), 1u);
+  const auto& held = shard["actors"][0];
+  EXPECT_EQ(held["transitions"], sent["transitions_published"]);
+  EXPECT_EQ(held["payload_checksum"], sent["payload_checksum"]);
+  EXPECT_EQ(held["next_seq"], sent["batches"]);
+  EXPECT_EQ(shard["seq_jumps"], 0);
+  EXPECT_EQ(shard["rejected"], 0);
+  EXPECT_EQ(shard["duplicates"], 0);
+  // refused, counted and named by the shard and by the actor
+  EXPECT_GE(shard["refused_participants"].get<uint64_t>(), 1u);
+  const std::string named = "refused participant " + PrefixOf(*outsider);
+  EXPECT_NE(ReadText(c.dir / "replay-0.log").find(named), std::string::npos) << ReadText(c.dir / "replay-0.log");
+  EXPECT_NE(ReadText(c.dir / "actor-0.log").find(named), std::string::npos);
 }
 
 TEST(Security, UnsupportedOrIncompleteSetUpsAreRefusedBeforeStarting) {

@@ -2,6 +2,8 @@
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 
+#include <sstream>
+
 #include <spdlog/spdlog.h>
 
 #include "common/dds/discovery.h"
@@ -19,12 +21,21 @@ eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d) {
 
 std::string ShardPartition(int64_t shard) { return "shard-" + std::to_string(shard); }
 
+std::string PublisherOf(const SampleInfo& info) {
+  eprosima::fastrtps::rtps::GUID_t guid;
+  eprosima::fastrtps::rtps::iHandle2GUID(guid, info.publication_handle);
+  std::ostringstream out;
+  out << guid;
+  return out.str();
+}
+
 Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std::string& name) {
   DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   COINS_RETURN_IF_ERROR(ConfigureParticipant(options, qos));
   COINS_RETURN_IF_ERROR(ApplySecurity(options, name, qos));
-  return Open(options, qos);
+  auto authentication = options.security.empty() ? nullptr : std::make_unique<AuthenticationLog>(name);
+  return Open(options, qos, std::move(authentication));
 }
 
 Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& options, int index) {
@@ -34,7 +45,8 @@ Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& opti
   return Open(options, qos);
 }
 
-Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos) {
+Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos,
+                                         std::unique_ptr<AuthenticationLog> authentication) {
   // an id whose ports no killed process left behind (participant_ids.h)
   const int domain = static_cast<int>(options.domain);
   const int id = TakeParticipantId(domain);
@@ -49,13 +61,16 @@ Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainPartic
           domain);
     });
   }
-  DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(domain, qos);
+  // the listener hears authentication only: its status mask leaves data and matching to the
+  // entities' own wait sets
+  DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(domain, qos, authentication.get(),
+                                                                                      StatusMask::none());
   if (!p) {
     if (id >= 0) ReleaseParticipantId(domain, id);
     return Errorf("dds: cannot create participant '{}' on domain {} (discovery '{}')", qos.name().to_string(),
                   options.domain, options.discovery);
   }
-  return std::unique_ptr<Node>(new Node(options, p, id));
+  return std::unique_ptr<Node>(new Node(options, p, id, std::move(authentication)));
 }
 
 Node::~Node() {

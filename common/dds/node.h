@@ -24,6 +24,7 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "common/dds/authentication_log.h"
 #include "common/dds/dds_options.h"
 #include "common/status.h"
 
@@ -46,6 +47,9 @@ inline void TsanReceived(void*) {}
 eprosima::fastrtps::Duration_t ToDuration(std::chrono::nanoseconds d);
 // the partition name of replay shard k
 std::string ShardPartition(int64_t shard);
+// the GUID of the writer that published a sample (its participant's prefix, then the writer's
+// entity id), for log lines that name a sender
+std::string PublisherOf(const fdds::SampleInfo& info);
 
 // A generated TopicDataType whose getKey may be called from several threads at once. The
 // generated getKey of a keyed type writes into buffers the type object owns (m_keyBuffer,
@@ -164,12 +168,20 @@ class Node {
   const DdsOptions& options() const { return options_; }
   // the participant id it took (common/dds/participant_ids.h); -1 when Fast DDS chose one
   int participant_id() const { return participant_id_; }
+  // remote participants refused by DDS Security (authentication failed); 0 without security
+  uint64_t refused_participants() const { return authentication_ ? authentication_->refused() : 0; }
 
  private:
-  Node(const DdsOptions& options, fdds::DomainParticipant* p, int participant_id)
-      : options_(options), participant_(p), participant_id_(participant_id) {}
-  // creates the participant of `qos` with a participant id of its own
-  static Result<std::unique_ptr<Node>> Open(const DdsOptions& options, fdds::DomainParticipantQos& qos);
+  Node(const DdsOptions& options, fdds::DomainParticipant* p, int participant_id,
+       std::unique_ptr<AuthenticationLog> authentication)
+      : options_(options),
+        authentication_(std::move(authentication)),
+        participant_(p),
+        participant_id_(participant_id) {}
+  // creates the participant of `qos` with a participant id of its own (and, when `authentication`
+  // is given, that listener to its remote participants' authentication)
+  static Result<std::unique_ptr<Node>> Open(const DdsOptions& options, fdds::DomainParticipantQos& qos,
+                                            std::unique_ptr<AuthenticationLog> authentication = nullptr);
   Result<fdds::Topic*> GetTopic(const std::string& topic, fdds::TypeSupport type);
   Result<fdds::DataWriter*> CreateWriter(const std::string& topic, fdds::TypeSupport type,
                                          const fdds::DataWriterQos& qos, const std::string& partition);
@@ -177,6 +189,7 @@ class Node {
                                          const fdds::DataReaderQos& qos, const std::string& partition);
 
   DdsOptions options_;
+  std::unique_ptr<AuthenticationLog> authentication_;  // outlives the participant (declared first)
   fdds::DomainParticipant* participant_;
   int participant_id_;  // -1: chosen by Fast DDS
   std::map<std::string, fdds::Topic*> topics_;

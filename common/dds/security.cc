@@ -30,13 +30,22 @@ std::string Topics(const std::vector<std::string>& topics) {
 }  // namespace
 
 const std::vector<SecurityRole>& SecurityRoles() {
+  // what each role's processes write and read, and nothing more: only the shards read
+  // transitions, so an actor's key gives no copy of another actor's stream
+  static const std::string status = "coins.status.*";
   static const std::vector<SecurityRole> roles = {
-      {"actor", {kTransitionTopic, kActorStatsTopic, kHeartbeatTopic}, {"*"}},
-      {"replay", {kSampleReplyTopic, kReplayStatsTopic, kHeartbeatTopic}, {"*"}},
-      {"learner", {kWeightsTopic, kSampleRequestTopic, kScoresTopic, kLearnerStatusTopic, kHeartbeatTopic}, {"*"}},
-      {"orchestrator", {kControlTopic, kChainCommandTopic, kChainStatusTopic, kHeartbeatTopic}, {"*"}},
-      {"monitor", {}, {"coins.status.*"}},
-      {"operator", {kControlTopic, kHeartbeatTopic}, {"*"}},
+      {"actor",
+       {kTransitionTopic, kActorStatsTopic, kHeartbeatTopic},
+       {kChainCommandTopic, kWeightsTopic, kLearnerStatusTopic, kReplayStatsTopic}},
+      {"replay",
+       {kSampleReplyTopic, kReplayStatsTopic, kHeartbeatTopic},
+       {kTransitionTopic, kSampleRequestTopic, kPriorityUpdateTopic, kControlTopic}},
+      {"learner",
+       {kWeightsTopic, kSampleRequestTopic, kPriorityUpdateTopic, kScoresTopic, kLearnerStatusTopic, kHeartbeatTopic},
+       {kSampleReplyTopic, kChainCommandTopic, kControlTopic, kActorStatsTopic}},
+      {"orchestrator", {kControlTopic, kChainCommandTopic, kChainStatusTopic, kHeartbeatTopic}, {status}},
+      {"monitor", {}, {status}},
+      {"operator", {kControlTopic, kHeartbeatTopic}, {status}},
   };
   return roles;
 }

@@ -10,7 +10,7 @@
 //   ROLE.pem, ROLE.key             one identity per role (subject "CN=ROLE, O=coins")
 //   ROLE-permissions.xml/.p7s      what ROLE may publish and subscribe, signed by the CA
 // With dds.security: DIR a participant authenticates as its role (dds.identity; the coins
-// processes set their own) and may only write the topics of kPublishes below. Fast DDS 2.9 cannot
+// processes set their own) and may write and read only its role's topics (SecurityRoles). Fast DDS 2.9 cannot
 // secure a run that discovers through a discovery server (that came in 2.10): a secured cluster
 // discovers by static peers (dds.discovery: peers) or multicast, and the combination is refused.
 #pragma once
@@ -32,7 +32,8 @@ struct SecurityRole {
 };
 
 // actor, replay, learner, orchestrator, monitor (reads status only), operator (a person or tool
-// that may stop a run: writes Control)
+// that may stop a run: writes Control, reads status). Each reads only the topics its process
+// takes: only shards read transitions, only the learner reads samples.
 const std::vector<SecurityRole>& SecurityRoles();
 
 // the identity of the coins process `binary` ("coins-actor" -> "actor"), or "" for others

@@ -5,6 +5,7 @@
 #include <functional>
 #include <iterator>
 #include <set>
+#include <sstream>
 
 #include "common/dds/qos.h"
 #include "common/transition_batch.h"
@@ -320,6 +321,10 @@ TEST(ReplayService, OneBatchFarAheadDoesNotPoisonTheActorsLaterBatches) {
   std::ifstream log(c.dir / "replay-0.log");
   std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("sequence number jumps to 4000000000 (expected 100)"), std::string::npos) << text;
+  // the log names the writer that sent it
+  std::ostringstream writer_guid;
+  writer_guid << writer->raw()->guid();
+  EXPECT_NE(text.find("(writer " + writer_guid.str() + ")"), std::string::npos) << text;
 }
 
 }  // namespace

@@ -89,7 +89,7 @@ int ProcessMain::Parse(int argc, char** argv) {
 }
 
 Result<ProcessNode> ProcessMain::OpenNode(const std::string& role) {
-  auto node = dds::Node::Create(dds_, name_);
+  auto node = dds::Node::Join(dds_, name_);
   if (!node.ok()) return node.status();
   auto heartbeat = dds::Heartbeat::Create(**node, name_, role);
   if (!heartbeat.ok()) return heartbeat.status().WithContext("cannot open DDS topics");

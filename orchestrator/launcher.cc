@@ -68,7 +68,8 @@ std::vector<int> LocalDiscoveryServers(const SystemConfig& c) {
 // discovery servers first, then shards so actors find them, then learner and orchestrator, then
 // actors (of this host's roles); shards, learner and orchestrator of a resumed run start from the
 // epoch's files (first start only)
-Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& config_path, const RunPlan& plan) {
+Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& config_path, const RunPlan& plan,
+                     const dds::Node& node) {
   const std::string bin = SelfDirectory();
   const RunRoles& roles = plan.roles;
   auto spec = [&](const std::string& binary, const std::string& name, int64_t id, bool resumes) {
@@ -89,6 +90,9 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
       COINS_RETURN_IF_ERROR(sup.Start(s));
     }
   }
+  // the servers, here or elsewhere, answer before any process that moves data starts
+  COINS_RETURN_IF_ERROR(node.AwaitDiscoveryServer(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(c.dds.server_wait_s))));
   for (int64_t k : roles.shard_ids)
     COINS_RETURN_IF_ERROR(sup.Start(spec("coins-replay", fmt::format("replay-{}", k), k, true)));
   if (roles.Has("learner")) COINS_RETURN_IF_ERROR(sup.Start(spec("coins-learner", "learner", -1, true)));
@@ -356,7 +360,7 @@ int RunLocal(const RunFlags& flags) {
 
   Supervisor sup((std::filesystem::path(c.run.dir) / "logs").string(), c.run.max_restarts);
   std::vector<ChildProcess>& children = sup.children();
-  if (Status started = StartChildren(sup, c, config_path, plan); !started.ok()) {
+  if (Status started = StartChildren(sup, c, config_path, plan, **node); !started.ok()) {
     std::cerr << "coins run: " << started.message() << "\n";
     StopAll(children, std::chrono::seconds(5));
     return 1;

@@ -154,7 +154,7 @@ int RunMonitor(const MonitorFlags& f) {
   InstallStopSignals();
   SetupLogging("coins-monitor", "warn");
   if (dds.identity.empty()) dds.identity = "monitor";
-  auto node = dds::Node::Create(dds, "coins-monitor");
+  auto node = dds::Node::Join(dds, "coins-monitor");
   if (!node.ok()) {
     std::cerr << "coins monitor: " << node.status().message() << "\n";
     return 1;

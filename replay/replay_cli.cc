@@ -76,7 +76,7 @@ void RunSnapshot(const SnapshotFlags& f) {
   const int64_t want = f.shards > 0 ? f.shards : (f.target == "replay" || f.target == "all" ? run.shards : 1);
   SetupLogging("coins-snapshot", "warn");
   if (dds.identity.empty()) dds.identity = "operator";
-  auto node = dds::Node::Create(dds, "coins-snapshot");
+  auto node = dds::Node::Join(dds, "coins-snapshot");
   if (!node.ok()) cli::Fail(cmd, node.status().message(), 1);
   auto writer = (*node)->MakeWriter<msg::ControlPubSubType>(dds::kControlTopic, dds::CommandWriterQos());
   auto stats = (*node)->MakeReader<msg::ReplayStatsPubSubType>(dds::kReplayStatsTopic, dds::StatusReaderQos());

@@ -48,6 +48,27 @@ void ExpectOneLineError(const CommandResult& r, const std::string& expected, con
   EXPECT_LE(std::count(rest.begin(), rest.end(), '\n'), 1) << what << "\n" << r.output;
 }
 
+// a discovery server that does not answer: one line naming its address and a non-zero exit,
+// from `coins run` before it starts a process that moves data, and from a process alone
+TEST(Cli, AnUnreachableDiscoveryServerIsNamedBeforeAnyDataMoves) {
+  const std::string server = "10.255.255.1:11811";  // no host answers there
+  const std::string dds = " --set dds.domain=" + std::to_string(TestDomain()) +
+                          " --set dds.discovery=server --set dds.discovery_server=" + server +
+                          " --set dds.server_wait_s=1";
+  auto dir = TempDir("cli-unreachable");
+  const auto start = std::chrono::steady_clock::now();
+  auto run = RunCommand(Bin("coins") + " run --quiet --steps 1000 --dir " + (dir / "run").string() + dds);
+  EXPECT_EQ(run.code, 1) << run.output;
+  EXPECT_NE(run.output.find("coins run: dds: no discovery server answered at " + server + " (dds.discovery_server)"),
+            std::string::npos)
+      << run.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "run" / "logs" / "replay-0.log")) << "a shard was started";
+  EXPECT_FALSE(std::filesystem::exists(dir / "run" / "logs" / "actor-0.log")) << "an actor was started";
+  auto shard = RunCommand(Bin("coins-replay") + " --quiet-config --id 0" + dds);
+  ExpectOneLineError(shard, "no discovery server answered at " + server, "coins-replay");
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
+}
+
 TEST(Cli, YamlKeysThatAreNotNamesAreErrorsInEveryBinary) {
   auto dir = TempDir("cli-yaml");
   std::ofstream(dir / "top.yaml") << "[1]: 2\n";

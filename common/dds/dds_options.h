@@ -31,6 +31,9 @@ struct DdsOptions {
   int64_t transition_history = 256;
   // seconds without discovery traffic after which a participant counts as gone
   double lease_s = 4.0;
+  // seconds a process waits at start for a discovery server to answer (dds.discovery: server)
+  // before it exits with an error naming the addresses
+  double server_wait_s = 10.0;
   // seconds a transition writer may find its history full while its shard reports no progress
   // before the actor replaces the writer (actors/batch_sink.h)
   double writer_stall_s = 3.0;
@@ -45,6 +48,7 @@ struct DdsOptions {
     v.Int("shm_segment_mb", shm_segment_mb, 1, 1024, "shared-memory segment size (MiB)");
     v.Int("transition_history", transition_history, 2, 4096, "transition writer history (batches)");
     v.Float("lease_s", lease_s, 0.5, 600, "participant lease duration (s)");
+    v.Float("server_wait_s", server_wait_s, 0.1, 3600, "wait at start for a discovery server (s)");
     v.Float("writer_stall_s", writer_stall_s, 0.5, 3600, "stalled transition writer replaced after (s)");
   }
   // the server and peer lists parse, and a mode that needs one has it

@@ -134,6 +134,15 @@ Status ConfigureParticipant(const DdsOptions& options, eprosima::fastdds::dds::D
   return Status::Ok();
 }
 
+bool IsServerPrefix(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) {
+  // the prefixes differ only in byte 2, the server's index
+  eprosima::fastrtps::rtps::GuidPrefix_t server;
+  std::istringstream(ServerPrefix(0)) >> server;
+  for (size_t i = 0; i < eprosima::fastrtps::rtps::GuidPrefix_t::size; ++i)
+    if (i != 2 && prefix.value[i] != server.value[i]) return false;
+  return true;
+}
+
 Status ConfigureServer(const DdsOptions& options, int index, eprosima::fastdds::dds::DomainParticipantQos& qos) {
   auto servers = ParseServers(options.discovery_server);
   if (!servers.ok()) return servers.status().WithContext("dds.discovery_server");

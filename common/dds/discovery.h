@@ -37,6 +37,8 @@ Result<std::vector<std::string>> ParsePeers(const std::string& list);
 
 // sets the transports and discovery of a participant as `options` say
 Status ConfigureParticipant(const DdsOptions& options, eprosima::fastdds::dds::DomainParticipantQos& qos);
+// true for the GUID prefix of a coins discovery server (any index)
+bool IsServerPrefix(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix);
 // makes `qos` the discovery server number `index` of options.discovery_server: it listens on
 // that entry's address and connects to the other servers
 Status ConfigureServer(const DdsOptions& options, int index, eprosima::fastdds::dds::DomainParticipantQos& qos);

@@ -80,5 +80,27 @@ TEST(Discovery, ParticipantsFindEachOtherThroughStaticPeers) {
   EXPECT_EQ(r->matched(), 1);
 }
 
+// a client refuses to go on without its discovery server, naming it, and joins once it answers
+TEST(Discovery, AClientWaitsForItsServerAndNamesOneThatDoesNotAnswer) {
+  auto lease = DomainLease::Acquire();
+  ASSERT_TRUE(lease.ok()) << lease.status().message();
+  DdsOptions o;
+  o.domain = lease->domain();
+  o.discovery = "server";
+  o.discovery_server = "127.0.0.1:" + std::to_string(21000 + lease->domain());
+  o.server_wait_s = 0.5;
+  auto alone = Node::Join(o, "client-alone");
+  ASSERT_FALSE(alone.ok());
+  EXPECT_EQ(alone.status().message(),
+            "dds: no discovery server answered at " + o.discovery_server + " (dds.discovery_server) within 0.5 s");
+  auto server = Node::CreateDiscoveryServer(o, 0);
+  ASSERT_TRUE(server.ok()) << server.status().message();
+  EXPECT_TRUE(IsServerPrefix((*server)->participant()->guid().guidPrefix));
+  o.server_wait_s = 15;
+  auto client = Node::Join(o, "client");
+  ASSERT_TRUE(client.ok()) << client.status().message();
+  EXPECT_FALSE(IsServerPrefix((*client)->participant()->guid().guidPrefix));
+}
+
 }  // namespace
 }  // namespace coins::dds

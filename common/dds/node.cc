@@ -34,8 +34,15 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
   qos.name(name);
   COINS_RETURN_IF_ERROR(ConfigureParticipant(options, qos));
   COINS_RETURN_IF_ERROR(ApplySecurity(options, name, qos));
-  auto authentication = options.security.empty() ? nullptr : std::make_unique<AuthenticationLog>(name);
-  return Open(options, qos, std::move(authentication));
+  return Open(options, qos);
+}
+
+Result<std::unique_ptr<Node>> Node::Join(const DdsOptions& options, const std::string& name) {
+  auto node = Create(options, name);
+  if (!node.ok()) return node;
+  COINS_RETURN_IF_ERROR((*node)->AwaitDiscoveryServer(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(options.server_wait_s))));
+  return node;
 }
 
 Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& options, int index) {
@@ -45,8 +52,7 @@ Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& opti
   return Open(options, qos);
 }
 
-Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos,
-                                         std::unique_ptr<AuthenticationLog> authentication) {
+Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos) {
   // an id whose ports no killed process left behind (participant_ids.h)
   const int domain = static_cast<int>(options.domain);
   const int id = TakeParticipantId(domain);
@@ -61,16 +67,23 @@ Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainPartic
           domain);
     });
   }
-  // the listener hears authentication only: its status mask leaves data and matching to the
-  // entities' own wait sets
-  DomainParticipant* p = DomainParticipantFactory::get_instance()->create_participant(domain, qos, authentication.get(),
-                                                                                      StatusMask::none());
+  // the listener hears about remote participants only: its status mask leaves data and matching
+  // to the entities' own wait sets
+  auto events = std::make_unique<ParticipantEvents>(qos.name().to_string());
+  DomainParticipant* p =
+      DomainParticipantFactory::get_instance()->create_participant(domain, qos, events.get(), StatusMask::none());
   if (!p) {
     if (id >= 0) ReleaseParticipantId(domain, id);
     return Errorf("dds: cannot create participant '{}' on domain {} (discovery '{}')", qos.name().to_string(),
                   options.domain, options.discovery);
   }
-  return std::unique_ptr<Node>(new Node(options, p, id, std::move(authentication)));
+  return std::unique_ptr<Node>(new Node(options, p, id, std::move(events)));
+}
+
+Status Node::AwaitDiscoveryServer(std::chrono::nanoseconds timeout) const {
+  if (options_.discovery != "server" || events_->AwaitServer(timeout)) return Status::Ok();
+  return Errorf("dds: no discovery server answered at {} (dds.discovery_server) within {:g} s",
+                options_.discovery_server, std::chrono::duration<double>(timeout).count());
 }
 
 Node::~Node() {

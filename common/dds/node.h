@@ -24,8 +24,8 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
-#include "common/dds/authentication_log.h"
 #include "common/dds/dds_options.h"
+#include "common/dds/participant_events.h"
 #include "common/status.h"
 
 namespace coins::dds {
@@ -138,6 +138,9 @@ class Node {
  public:
   // creates the participant; `name` identifies the process in DDS tools
   static Result<std::unique_ptr<Node>> Create(const DdsOptions& options, const std::string& name);
+  // Create, then (dds.discovery: server) AwaitDiscoveryServer for dds.server_wait_s: a process
+  // that cannot reach its discovery server stops with an error naming the addresses
+  static Result<std::unique_ptr<Node>> Join(const DdsOptions& options, const std::string& name);
   // discovery server number `index` of options.discovery_server (common/dds/discovery.h)
   static Result<std::unique_ptr<Node>> CreateDiscoveryServer(const DdsOptions& options, int index);
   ~Node();
@@ -169,19 +172,17 @@ class Node {
   // the participant id it took (common/dds/participant_ids.h); -1 when Fast DDS chose one
   int participant_id() const { return participant_id_; }
   // remote participants refused by DDS Security (authentication failed); 0 without security
-  uint64_t refused_participants() const { return authentication_ ? authentication_->refused() : 0; }
+  uint64_t refused_participants() const { return events_->refused(); }
+  // with dds.discovery: server, waits until a discovery server of dds.discovery_server answers;
+  // the error names the addresses (nothing else to do: Ok at once)
+  Status AwaitDiscoveryServer(std::chrono::nanoseconds timeout) const;
 
  private:
   Node(const DdsOptions& options, fdds::DomainParticipant* p, int participant_id,
-       std::unique_ptr<AuthenticationLog> authentication)
-      : options_(options),
-        authentication_(std::move(authentication)),
-        participant_(p),
-        participant_id_(participant_id) {}
-  // creates the participant of `qos` with a participant id of its own (and, when `authentication`
-  // is given, that listener to its remote participants' authentication)
-  static Result<std::unique_ptr<Node>> Open(const DdsOptions& options, fdds::DomainParticipantQos& qos,
-                                            std::unique_ptr<AuthenticationLog> authentication = nullptr);
+       std::unique_ptr<ParticipantEvents> events)
+      : options_(options), events_(std::move(events)), participant_(p), participant_id_(participant_id) {}
+  // creates the participant of `qos` with a participant id of its own and its listener
+  static Result<std::unique_ptr<Node>> Open(const DdsOptions& options, fdds::DomainParticipantQos& qos);
   Result<fdds::Topic*> GetTopic(const std::string& topic, fdds::TypeSupport type);
   Result<fdds::DataWriter*> CreateWriter(const std::string& topic, fdds::TypeSupport type,
                                          const fdds::DataWriterQos& qos, const std::string& partition);
@@ -189,7 +190,7 @@ class Node {
                                          const fdds::DataReaderQos& qos, const std::string& partition);
 
   DdsOptions options_;
-  std::unique_ptr<AuthenticationLog> authentication_;  // outlives the participant (declared first)
+  std::unique_ptr<ParticipantEvents> events_;  // outlives the participant (declared first)
   fdds::DomainParticipant* participant_;
   int participant_id_;  // -1: chosen by Fast DDS
   std::map<std::string, fdds::Topic*> topics_;

@@ -20,6 +20,8 @@ packages=(
   gnuplot-nox
   # the cluster test's network namespaces (ip netns), and the DDS Security certificates
   iproute2 openssl
+  # the Slurm test (tests/slurm_test.sh): a private Slurm cluster on this machine
+  slurm-wlm munge
 )
 
 missing=()

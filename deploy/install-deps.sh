@@ -18,8 +18,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev clang-format-14
   # learning-curve PNGs of `coins run` (gnuplot without X11)
   gnuplot-nox
-  # the cluster test's network namespaces (ip netns), and the DDS Security certificates
-  iproute2 openssl
+  # the cluster test's network namespaces (ip netns), the DDS Security certificates and their checks
+  iproute2 openssl libssl-dev
   # the Slurm test (tests/slurm_test.sh): a private Slurm cluster on this machine
   slurm-wlm munge
 )

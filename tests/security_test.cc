@@ -2,6 +2,10 @@
 // participants without an identity or without a permission can and cannot do.
 #include <gtest/gtest.h>
 
+#include <openssl/pem.h>
+#include <openssl/x509.h>
+
+#include <cstdio>
 #include <sstream>
 #include <thread>
 
@@ -237,6 +241,36 @@ TEST(Security, ForgedBatchesAndControlAreRefusedCountedAndNamed) {
   EXPECT_NE(ReadText(c.dir / "actor-0.log").find(named), std::string::npos);
 }
 
+// re-issues `dir`/ROLE.pem, signed by the set-up's CA, valid from 2 days ago to 1 day ago
+void WriteExpiredIdentity(const fs::path& dir, const std::string& role) {
+  auto read_cert = [](const fs::path& p) {
+    FILE* f = std::fopen(p.c_str(), "r");
+    X509* x = f ? PEM_read_X509(f, nullptr, nullptr, nullptr) : nullptr;
+    if (f) std::fclose(f);
+    return x;
+  };
+  X509* ca = read_cert(dir / "ca.pem");
+  X509* old = read_cert(dir / (role + ".pem"));
+  FILE* kf = std::fopen((dir / "ca.key").c_str(), "r");
+  EVP_PKEY* ca_key = kf ? PEM_read_PrivateKey(kf, nullptr, nullptr, nullptr) : nullptr;
+  if (kf) std::fclose(kf);
+  ASSERT_TRUE(ca && old && ca_key);
+  X509* cert = X509_new();
+  X509_set_version(cert, 2);
+  ASN1_INTEGER_set(X509_get_serialNumber(cert), 4242);
+  X509_set_subject_name(cert, X509_get_subject_name(old));
+  X509_set_issuer_name(cert, X509_get_subject_name(ca));
+  X509_set_pubkey(cert, X509_get0_pubkey(old));
+  X509_gmtime_adj(X509_getm_notBefore(cert), -2 * 86400);
+  X509_gmtime_adj(X509_getm_notAfter(cert), -86400);
+  ASSERT_GT(X509_sign(cert, ca_key, EVP_sha256()), 0);
+  FILE* out = std::fopen((dir / (role + ".pem")).c_str(), "w");
+  ASSERT_TRUE(out);
+  PEM_write_X509(out, cert);
+  std::fclose(out);
+  X509_free(cert), X509_free(old), X509_free(ca), EVP_PKEY_free(ca_key);
+}
+
 TEST(Security, UnsupportedOrIncompleteSetUpsAreRefusedBeforeStarting) {
   const fs::path base = TempDir("security-refused");
   const fs::path dir = InitSecurity(base);
@@ -250,6 +284,27 @@ TEST(Security, UnsupportedOrIncompleteSetUpsAreRefusedBeforeStarting) {
                           30s);
   EXPECT_NE(shard.code, 0);
   EXPECT_NE(shard.output.find("replay-permissions.p7s is missing"), std::string::npos) << shard.output;
+
+  // a permissions document signed by another CA, an expired identity: one line naming the file,
+  // before the process joins the domain
+  const fs::path other = InitSecurity(base / "other");
+  fs::copy_file(other / "replay-permissions.p7s", dir / "replay-permissions.p7s");
+  auto shard_of = [&](const std::string& binary, const std::string& extra) {
+    return RunCommand(Bin(binary) + " --quiet-config --set dds.domain=" + std::to_string(TestDomain()) +
+                          " --set dds.security=" + dir.string() + extra,
+                      30s);
+  };
+  auto foreign = shard_of("coins-replay", "");
+  EXPECT_EQ(foreign.code, 1) << foreign.output;
+  EXPECT_NE(foreign.output.find("dds.security: " + dir.string() + "/replay-permissions.p7s is not signed by " +
+                                dir.string() + "/ca.pem"),
+            std::string::npos)
+      << foreign.output;
+  WriteExpiredIdentity(dir, "actor");
+  auto expired = shard_of("coins-actor", " --set actor.steps=10");
+  EXPECT_EQ(expired.code, 1) << expired.output;
+  EXPECT_NE(expired.output.find("dds.security: " + dir.string() + "/actor.pem expired on "), std::string::npos)
+      << expired.output;
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "common/dds/security_files.h"
 #include "common/dds/topics.h"
 
 namespace coins::dds {
@@ -77,6 +78,7 @@ Status ApplySecurity(const DdsOptions& options, const std::string& participant,
     if (::access((dir + "/" + f).c_str(), R_OK) != 0)
       return Errorf("dds.security: {}/{} is missing or unreadable (make the directory with `coins security init {}`)",
                     dir, f, dir);
+  COINS_RETURN_IF_ERROR(CheckSecurityFiles(dir, id));
   auto& p = qos.properties().properties();
   auto set = [&](const std::string& key, const std::string& value) { p.emplace_back(key, value); };
   const std::string file = "file://" + std::filesystem::absolute(dir).string() + "/";

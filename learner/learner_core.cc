@@ -23,10 +23,13 @@ constexpr int64_t kPacingSlack = 1000;
 constexpr int kVersionShift = 40;
 constexpr size_t kLagWindow = 4096;
 
+// replay that cannot serve yet: shards without data or held by their rate limiter, and shards
+// away (stopped, restarting; the replay client fails the job once one stays away too long)
 bool IsWaiting(const Status& s) {
   const std::string& m = s.message();
   return m.find("no transitions") != std::string::npos || m.find("not ready") != std::string::npos ||
-         m.find("NOT_READY") != std::string::npos || m.find("holds no") != std::string::npos;
+         m.find("NOT_READY") != std::string::npos || m.find("holds no") != std::string::npos ||
+         m.find("no reply within the timeout") != std::string::npos;
 }
 }  // namespace
 

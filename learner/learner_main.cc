@@ -259,6 +259,7 @@ int LearnerMain(int argc, char** argv) {
   ReplayClientOptions co;
   co.shards = int(run.shards);
   co.name = main.name();
+  co.shard_wait = std::chrono::milliseconds(int64_t(options.shard_wait_s * 1000));
   auto client = ReplayClient::Create(*dds->node, co);
   if (!client.ok()) return ExitWithError(client.status().WithContext("cannot open DDS topics"), 1);
   auto prefetch = PrefetchingSource::Create(client->get());

@@ -101,6 +101,7 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
   v.Int("eval_max_steps", eval_max_steps, 1, int64_t(1) << 30, "env steps per evaluation episode at most");
   v.Float("eval_task_explore", eval_task_explore, 0, 1, "task epsilon in evaluations");
   v.Int("checkpoint_keep", checkpoint_keep, 1, 1000, "learner checkpoints kept");
+  v.Float("shard_wait_s", shard_wait_s, 1, 1e7, "seconds a silent replay shard is waited for before the job fails");
 }
 
 Status LearnerOptions::Validate() const {

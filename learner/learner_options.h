@@ -72,6 +72,10 @@ struct LearnerOptions {
   double eval_task_explore = 0.05;
   // checkpoints go to RUN_DIR/checkpoints
   int64_t checkpoint_keep = 3;
+  // a replay shard that does not answer is waited for (sampling goes on from the others, or
+  // pauses when none answers) this long before the learner's job fails naming it: a shard's
+  // restart or a node drain must not end the chain
+  double shard_wait_s = 300;
 
   static LevelTrainOptions Primitive();
   static LevelTrainOptions Skill();

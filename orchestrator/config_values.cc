@@ -60,6 +60,7 @@ bool IsOperationalKey(const std::string& key) {
                                                  "orchestrator.checkpoint_timeout_s",
                                                  "actor.steps",
                                                  "actor.flush_timeout_s",
+                                                 "learner.shard_wait_s",
                                                  "replay.snapshot_dir",
                                                  "replay.snapshot_period_s",
                                                  "replay.snapshot_keep",

@@ -17,7 +17,7 @@ ConfigValues FlattenConfig(const std::vector<ConfigSection>& sections);
 
 // keys that may change between a run and its resume without changing what the chain means:
 // dds.*, run.dir/steps/actors/max_restarts, *.status_period_s, checkpoint periods, snapshot
-// placement and retention, per-actor step counts
+// placement and retention, per-actor step counts, how long the learner waits for a shard
 bool IsOperationalKey(const std::string& key);
 // the values a chain state depends on: every key that is not operational
 ConfigValues ChainFingerprint(const ConfigValues& all);

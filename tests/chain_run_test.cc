@@ -1,6 +1,7 @@
 // System tests of `coins run` with the chain: a crashed child is restarted (bounded), the
-// restarted orchestrator continues its chain, and `--resume RUN_DIR` starts every process from
-// the newest complete epoch or refuses with one line.
+// restarted orchestrator continues its chain, a replay shard stopped or killed during skill
+// training is waited for, and `--resume RUN_DIR` starts every process from the newest complete
+// epoch or refuses with one line.
 #include <signal.h>
 
 #include <gtest/gtest.h>
@@ -16,6 +17,7 @@ namespace coins {
 namespace {
 
 using namespace coins::testing;
+using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
 std::string Flags(const fs::path& dir, int domain) {
@@ -89,6 +91,76 @@ TEST(ChainRun, ACrashedOrchestratorIsRestartedAndContinuesUntilItsRetriesAreSpen
       << out;
   EXPECT_NE(out.find("| restarts 1"), std::string::npos) << out;
   EXPECT_EQ(PidOf("coins-actor", run), -1) << "an actor outlived the run";
+}
+
+// the newest update count of the trained level the learner logged with its weights, or -1
+int64_t NewestLearnerStep(const fs::path& run) {
+  const std::string log = ReadText(run / "logs" / "learner.log");
+  const size_t at = log.rfind("learner step ");
+  return at == std::string::npos ? -1 : std::stoll(log.substr(at + 13));
+}
+
+// how often text occurs in a file
+size_t Occurrences(const fs::path& file, const std::string& text) {
+  const std::string s = ReadText(file);
+  size_t n = 0;
+  for (size_t at = s.find(text); at != std::string::npos; at = s.find(text, at + 1)) ++n;
+  return n;
+}
+
+// a shard stopped (SIGTERM: it writes its final snapshot) and then killed (SIGKILL) during skill
+// training, each time restarted by `coins run`, is waited for: the learner samples from the shard
+// that answers, takes the restarted one back, and the skill's training goes on
+TEST(ChainRun, AReplayShardStoppedOrKilledDuringSkillTrainingIsWaitedFor) {
+  auto dir = TempDir("chain-shard-away");
+  const fs::path run = dir / "run";
+  // a quick detect round (Action->Paddle still passes); the skill never converges here
+  const std::string chain_flags =
+      " --set detector.passive_steps=500 --set detector.passive_hard_steps=300 --set detector.active_steps=1000"
+      " --set orchestrator.skill_min_goals=1000000000";
+  std::vector<ChildProcess> coins;
+  auto child = ChildProcess::Spawn(
+      "coins-run",
+      {"/bin/sh", "-c",
+       "exec " + Bin("coins") + " run --steps 0 --actors 2 --shards 2" + Flags(run, TestDomain()) + chain_flags},
+      (dir / "run.log").string());
+  ASSERT_TRUE(child.ok());
+  coins.push_back(std::move(*child));
+  auto log = [&] {
+    return ReadText(dir / "run.log") + "\n--- learner\n" + ReadText(run / "logs" / "learner.log") +
+           "\n--- orchestrator\n" + ReadText(run / "logs" / "orchestrator.log");
+  };
+  ASSERT_TRUE(WaitUntil([&] { return ChainState(run).value("phase", "") == "training-skill"; }, 60s)) << log();
+  ASSERT_TRUE(WaitUntil([&] { return NewestLearnerStep(run) >= 500; }, 30s)) << log();
+
+  for (int sig : {SIGTERM, SIGKILL}) {
+    SCOPED_TRACE(sig == SIGTERM ? "SIGTERM" : "SIGKILL");
+    const size_t restarts = Occurrences(dir / "run.log", "replay-0 restarted");
+    const size_t back = Occurrences(run / "logs" / "learner.log", "replay shard 0 answers again");
+    auto pid = RunCommand("pgrep -f '[c]oins-replay --config " + (run / "config.yaml").string() + " --name replay-0 '");
+    ASSERT_EQ(pid.code, 0) << pid.output;
+    ASSERT_EQ(kill(pid_t(std::stol(pid.output)), sig), 0);
+    ASSERT_TRUE(WaitUntil([&] { return Occurrences(dir / "run.log", "replay-0 restarted") > restarts; }, 20s)) << log();
+    // the skill's training goes on: the learner keeps updating, the link stays in training
+    const int64_t at_restart = NewestLearnerStep(run);
+    auto ended = [&] { return ChainState(run).value("phase", "") != "training-skill"; };
+    EXPECT_TRUE(WaitUntil([&] { return ended() || NewestLearnerStep(run) >= at_restart + 500; }, 30s)) << log();
+    const nlohmann::json state = ChainState(run);
+    ASSERT_EQ(state.value("phase", ""), "training-skill") << state.dump(1) << "\n" << log();
+    ASSERT_EQ(state["links"].size(), 1u) << state.dump(1);
+    // and samples from the restarted shard again: its newest line in the learner's log says so
+    auto taken_back = [&] {
+      const std::string learner = ReadText(run / "logs" / "learner.log");
+      const size_t again = learner.rfind("replay shard 0 answers again"),
+                   away = learner.rfind("replay shard 0: no reply");
+      return Occurrences(run / "logs" / "learner.log", "replay shard 0 answers again") > back &&
+             (away == std::string::npos || again > away);
+    };
+    EXPECT_TRUE(WaitUntil(taken_back, 20s)) << log();
+  }
+  coins[0].Signal(SIGTERM);
+  ASSERT_TRUE(coins[0].WaitFor(40s)) << log();
+  EXPECT_TRUE(coins[0].succeeded()) << log();
 }
 
 // a short finished run to resume from: its config.yaml and chain.json

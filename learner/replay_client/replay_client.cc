@@ -4,6 +4,8 @@
 #include <random>
 #include <thread>
 
+#include <spdlog/spdlog.h>
+
 #include "idl/samplingPubSubTypes.h"
 #include "replay/sampling_topics.h"
 
@@ -50,9 +52,10 @@ bool ReplayClient::WaitForShards(std::chrono::milliseconds timeout) {
   }
 }
 
-void ReplayClient::Round(std::chrono::steady_clock::time_point deadline, std::vector<int>* status,
+void ReplayClient::Round(Clock::time_point deadline, const std::vector<bool>& good, std::vector<int>* status,
                          std::vector<std::string>* errors) {
   const int K = options_.shards;
+  const auto start = Clock::now();
   std::vector<uint64_t> ids(size_t(K), 0);
   // one request per shard with something to ask
   for (int k = 0; k < K; ++k) {
@@ -60,7 +63,7 @@ void ReplayClient::Round(std::chrono::steady_clock::time_point deadline, std::ve
     request_.correlation_id(ids[size_t(k)] = next_id_++);
     request_.shard_id(k);
     request_.batch_size(counts_[size_t(k)]);
-    auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
     request_.timeout_ms(uint32_t(std::max<int64_t>(0, left.count() * 3 / 4)));
     (*status)[size_t(k)] = kPending;
     if (!requests_.Write(request_)) {
@@ -68,15 +71,24 @@ void ReplayClient::Round(std::chrono::steady_clock::time_point deadline, std::ve
       (*errors)[size_t(k)] = "request not sent";
     }
   }
-  // replies until every pending shard answered or the deadline passed
-  auto pending = [&] { return std::count(status->begin(), status->end(), kPending); };
-  while (pending() > 0) {
-    auto now = std::chrono::steady_clock::now();
+  // replies until every shard waited for answered or the deadline passed: a silent shard is
+  // waited for only while no shard that answered could take its share
+  auto waiting = [&] {
+    bool taker = std::find(good.begin(), good.end(), true) != good.end();
+    for (int k = 0; k < K; ++k) taker = taker || ((*status)[size_t(k)] == msg::SAMPLE_OK && sizes_[size_t(k)] > 0);
+    for (int k = 0; k < K; ++k)
+      if ((*status)[size_t(k)] == kPending && !(taker && silent(uint32_t(k)))) return true;
+    return false;
+  };
+  while (waiting()) {
+    auto now = Clock::now();
     if (now >= deadline) break;
     replies_reader_.Wait(std::min<std::chrono::nanoseconds>(deadline - now, std::chrono::milliseconds(50)));
     replies_reader_.TakeAll(scratch_, [&](const msg::SampleReply& r, const auto&) {
       uint32_t k = r.shard_id();
-      if (k >= uint32_t(K) || ids[k] != r.correlation_id() || (*status)[k] != kPending) return;  // stale or foreign
+      if (k >= uint32_t(K)) return;  // foreign
+      Heard(k);
+      if (ids[k] != r.correlation_id() || (*status)[k] != kPending) return;  // stale
       (*status)[k] = r.status();
       sizes_[k] = r.shard_size();
       if (r.status() == msg::SAMPLE_OK) {
@@ -89,17 +101,41 @@ void ReplayClient::Round(std::chrono::steady_clock::time_point deadline, std::ve
       }
     });
   }
-  for (int k = 0; k < K; ++k)
+  for (int k = 0; k < K; ++k) {
     if ((*status)[size_t(k)] == kPending) {
       (*status)[size_t(k)] = kNoReply;
       (*errors)[size_t(k)] = "no reply within the timeout";
     }
+    if ((*status)[size_t(k)] != kNoReply || silent(uint32_t(k))) continue;
+    silent_since_[size_t(k)] = start;
+    spdlog::warn("replay shard {}: no reply within {} ms; sampling from the shards that answer until it does", k,
+                 std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start).count());
+  }
+}
+
+void ReplayClient::Heard(uint32_t k) {
+  if (!silent(k)) return;
+  spdlog::info("replay shard {} answers again after {:.1f} s", k,
+               std::chrono::duration<double>(Clock::now() - silent_since_[k]).count());
+  silent_since_[k] = {};
+}
+
+Status ReplayClient::CheckSilence() const {
+  const auto now = Clock::now();
+  for (size_t k = 0; k < silent_since_.size(); ++k)
+    if (silent(uint32_t(k)) && now - silent_since_[k] > options_.shard_wait)
+      return Errorf(
+          "replay client: shard {} has not answered for {:.1f} s, longer than a shard may be away "
+          "(learner.shard_wait_s = {} s)",
+          k, std::chrono::duration<double>(now - silent_since_[k]).count(),
+          std::chrono::duration<double>(options_.shard_wait).count());
+  return Status::Ok();
 }
 
 uint32_t ReplayClient::Rebalance(const std::vector<int>& status, std::vector<bool>* good) {
   const int K = options_.shards;
   uint32_t done = 0, moved = 0;
-  std::vector<uint32_t> refused(size_t(K), 0);
+  std::vector<uint32_t> unanswered(size_t(K), 0);
   for (int k = 0; k < K; ++k) {
     uint32_t& n = counts_[size_t(k)];
     if (n == 0) continue;
@@ -107,9 +143,9 @@ uint32_t ReplayClient::Rebalance(const std::vector<int>& status, std::vector<boo
       done += n;
       n = 0;
       (*good)[size_t(k)] = sizes_[size_t(k)] > 0;
-    } else if (status[size_t(k)] != kNoReply) {
+    } else {
       moved += n;
-      refused[size_t(k)] = n;
+      unanswered[size_t(k)] = n;
       n = 0;
     }
   }
@@ -117,28 +153,29 @@ uint32_t ReplayClient::Rebalance(const std::vector<int>& status, std::vector<boo
   for (int k = 0; k < K; ++k)
     if ((*good)[size_t(k)]) targets.push_back(k);
   if (targets.empty()) {
-    // nobody else can take the share: ask the same shards again (the limiter may open)
-    for (int k = 0; k < K; ++k) counts_[size_t(k)] += refused[size_t(k)];
+    // nobody else can take the share: ask the same shards again (the limiter may open, a shard
+    // may come back)
+    for (int k = 0; k < K; ++k) counts_[size_t(k)] += unanswered[size_t(k)];
   } else {
     for (uint32_t i = 0; i < moved; ++i) counts_[size_t(targets[i % targets.size()])]++;
   }
   return done;
 }
 
-Status ReplayClient::Gather(const SampleSpec& spec, uint32_t batch, std::chrono::steady_clock::time_point deadline) {
+Status ReplayClient::Gather(const SampleSpec& spec, uint32_t batch, Clock::time_point deadline) {
   const int K = options_.shards;
   FillRequest(spec, &request_);
   request_.client(options_.name);
-  // rounds until every sample came or the deadline passed: a shard that did not answer (a
-  // lost reply, a shard still matching) is asked again; a shard that answered NOT_READY or
-  // BAD_REQUEST has its share moved to shards that answered
+  // rounds until every sample came or the deadline passed: the share of a shard that did not
+  // answer (away, a lost reply, still matching) or answered NOT_READY or BAD_REQUEST moves to
+  // shards that answered
   std::vector<std::string> errors(static_cast<size_t>(K));
   std::vector<bool> good(size_t(K), false);
   uint32_t missing = batch;
   const auto round_wait = std::max<std::chrono::milliseconds>(options_.timeout / 4, std::chrono::milliseconds(250));
-  for (round_ = 0; round_ < kRounds && missing > 0 && std::chrono::steady_clock::now() < deadline; ++round_) {
+  for (round_ = 0; round_ < kRounds && missing > 0 && Clock::now() < deadline; ++round_) {
     std::vector<int> status(size_t(K), msg::SAMPLE_OK);
-    Round(std::min(deadline, std::chrono::steady_clock::now() + round_wait), &status, &errors);
+    Round(std::min(deadline, Clock::now() + round_wait), good, &status, &errors);
     missing -= Rebalance(status, &good);
   }
   if (missing == 0) return Status::Ok();
@@ -152,10 +189,12 @@ Status ReplayClient::Gather(const SampleSpec& spec, uint32_t batch, std::chrono:
 Status ReplayClient::Sample(const SampleSpec& spec, int batch, SampleColumns* out) {
   if (batch < 1 || uint32_t(batch) > COINS_SAMPLE_MAX_BATCH)
     return Errorf("replay client: batch {} not in [1, {}]", batch, COINS_SAMPLE_MAX_BATCH);
-  const auto deadline = std::chrono::steady_clock::now() + options_.timeout;
+  const auto deadline = Clock::now() + options_.timeout;
   merged_.clear();
   SplitBatch(sizes_, uint32_t(batch), &counts_);
-  COINS_RETURN_IF_ERROR(Gather(spec, uint32_t(batch), deadline));
+  Status gathered = Gather(spec, uint32_t(batch), deadline);
+  COINS_RETURN_IF_ERROR(CheckSilence());
+  COINS_RETURN_IF_ERROR(gathered);
   return MergeReplies(merged_, out).WithContext("replay client");
 }
 

@@ -3,10 +3,16 @@
 // options() as its spec. One Sample() call splits the batch over the K shards in proportion to
 // their sizes (as last reported in their replies; equal at first), sends one SampleRequest per
 // shard (correlation ids), and merges the replies (MergeReplies). Up to 4 rounds within the
-// timeout: a shard that did not answer a round (lost reply, shard still matching) is asked
-// again; a shard that answered NOT_READY or BAD_REQUEST has its share asked from the shards
-// that did answer. If samples are still missing at the timeout, Sample() fails with a message
-// naming the shards and why.
+// timeout: a shard that did not answer a round, or answered NOT_READY or BAD_REQUEST, has its
+// share asked from the shards that did answer; when none did, the same shards are asked again.
+// If samples are still missing at the timeout, Sample() fails with a message naming the shards
+// and why ("no reply within the timeout" when a shard is away: transient, the caller waits).
+//
+// A shard away (stopped, restarting, unreachable) is "silent" from the round it missed until any
+// reply of it arrives (logged both ways, naming the shard). Later calls still ask a silent shard
+// for its share but wait for it only when no other shard can take the share, so sampling goes on
+// at full rate from the shards that answer and takes a restarted shard back by itself. A shard
+// silent for longer than options.shard_wait makes Sample() fail with a message naming it.
 //
 // Keys: SampleKey(shard, the shard's global row number); UpdatePriorities / UpdateWeights route
 // them back to their shard. A shard resumed from a snapshot keeps the row numbers it saved;
@@ -36,6 +42,8 @@ namespace coins {
 struct ReplayClientOptions : SampleSpec {
   int shards = 2;
   std::chrono::milliseconds timeout{2000};  // per Sample() call, retries included
+  // how long a shard may stay silent before Sample() fails (learner.shard_wait_s)
+  std::chrono::milliseconds shard_wait{300000};
   std::string name = "learner";
 };
 
@@ -68,14 +76,23 @@ class ReplayClient final : public SampleSource, public rl::BatchSource {
   static uint64_t KeyRow(uint64_t key) { return coins::KeyRow(key); }
 
  private:
-  ReplayClient(const ReplayClientOptions& o) : options_(o), sizes_(size_t(o.shards), 0) {}
+  using Clock = std::chrono::steady_clock;
+  ReplayClient(const ReplayClientOptions& o)
+      : options_(o), sizes_(size_t(o.shards), 0), silent_since_(size_t(o.shards)) {}
   // rounds until every share came or the deadline passed; fills merged_
-  Status Gather(const SampleSpec& spec, uint32_t batch, std::chrono::steady_clock::time_point deadline);
-  // one round: asks each shard k for counts_[k]; fills status[k] (a SAMPLE_* or kNoReply)
-  void Round(std::chrono::steady_clock::time_point deadline, std::vector<int>* status,
+  Status Gather(const SampleSpec& spec, uint32_t batch, Clock::time_point deadline);
+  // one round: asks each shard k for counts_[k]; fills status[k] (a SAMPLE_* or kNoReply). A
+  // silent shard is not waited for once a shard that answered (good, or OK in this round) can
+  // take its share; a shard without a reply in time becomes silent
+  void Round(Clock::time_point deadline, const std::vector<bool>& good, std::vector<int>* status,
              std::vector<std::string>* errors);
-  // after a round: answered shares are done, refused ones move to shards that answered
+  // after a round: answered shares are done, the others move to shards that answered
   uint32_t Rebalance(const std::vector<int>& status, std::vector<bool>* good);
+  bool silent(uint32_t k) const { return silent_since_[k] != Clock::time_point{}; }
+  // a reply of shard k came (of this call or an older one): it is no longer silent
+  void Heard(uint32_t k);
+  // an error naming the first shard silent for longer than options_.shard_wait (ok when none)
+  Status CheckSilence() const;
   void SendUpdates(uint8_t kind, std::span<const uint64_t> keys, std::span<const float> values);
 
   ReplayClientOptions options_;
@@ -83,6 +100,7 @@ class ReplayClient final : public SampleSource, public rl::BatchSource {
   dds::Reader<msg::SampleReply> replies_reader_;
   dds::Writer<msg::PriorityUpdate> updates_;
   std::vector<uint64_t> sizes_;
+  std::vector<Clock::time_point> silent_since_;  // {}: the shard answers
   std::vector<uint32_t> counts_;
   uint64_t next_id_ = 1;
   msg::SampleRequest request_;

@@ -195,6 +195,52 @@ TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {
   EXPECT_GT(c.Stats(0).rate_limited() + 1, 0u);
 }
 
+// a shard that stops answering (here SIGSTOP: alive, matched, silent) is sampled around: the
+// client takes its share from the other shard at full rate, takes it back once it answers again,
+// and fails, naming it, only when it stays silent for longer than shard_wait
+TEST(ReplayService, ASilentShardIsSampledAroundTakenBackAndFailsTheClientOnlyAfterShardWait) {
+  ReplayCluster c{TempDir("replay-silent"), TestDomain()};
+  c.StartShards();
+  c.StartActors(2000);
+  c.Join();
+  ASSERT_TRUE(WaitUntil([&] { return c.Stats(0).size() >= 1000 && c.Stats(1).size() >= 1000; }, 60s));
+  ReplayClientOptions o;
+  o.timeout = 2s;
+  o.shard_wait = 4s;
+  auto client = c.Client(o);
+  ASSERT_TRUE(client->WaitForShards(20s));
+  rl::Batch batch;
+  auto sampled_shards = [&] {
+    std::set<uint32_t> s;
+    for (uint64_t key : batch.keys) s.insert(ReplayClient::KeyShard(key));
+    return s;
+  };
+  ASSERT_TRUE(client->Sample(64, &batch).ok());
+  EXPECT_EQ(sampled_shards(), (std::set<uint32_t>{0, 1}));
+
+  // the first batch waits one round (500 ms) for shard 0, the next ones do not wait for it
+  c.shards[0].Signal(SIGSTOP);
+  auto t0 = Clock::now();
+  Status s = client->Sample(64, &batch);
+  ASSERT_TRUE(s.ok()) << s.message();
+  EXPECT_EQ(sampled_shards(), std::set<uint32_t>{1});
+  EXPECT_LT(Clock::now() - t0, 1500ms);
+  t0 = Clock::now();
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(client->Sample(64, &batch).ok());
+  EXPECT_LT(Clock::now() - t0, 2s);
+  EXPECT_EQ(sampled_shards(), std::set<uint32_t>{1});
+
+  c.shards[0].Signal(SIGCONT);
+  EXPECT_TRUE(WaitUntil([&] { return client->Sample(64, &batch).ok() && sampled_shards().count(0); }, 10s));
+
+  c.shards[0].Signal(SIGSTOP);
+  const auto stopped = Clock::now();
+  ASSERT_TRUE(WaitUntil([&] { return !(s = client->Sample(64, &batch)).ok(); }, 20s));
+  EXPECT_GE(Clock::now() - stopped, 4s);
+  EXPECT_NE(s.message().find("shard 0 has not answered for"), std::string::npos) << s.message();
+  c.shards[0].Signal(SIGCONT);
+}
+
 // malformed batches (wrong sizes, NaN, unknown schema) and requests are rejected and counted,
 // and the shard keeps storing and serving
 TEST(ReplayService, MalformedBatchesAndRequestsAreRejectedAndCounted) {

@@ -41,6 +41,38 @@ fs::path InitSecurity(const fs::path& base) {
   return dir;
 }
 
+// one secured shard and one secured actor (random actions, until stopped) of `c`, watched through
+// a monitor identity
+struct SecuredRun {
+  std::unique_ptr<dds::Node> monitor;
+  std::unique_ptr<StatusCollector> watch;
+  // transitions shard 0 reports stored
+  uint64_t stored() const {
+    auto v = watch->Snapshot();
+    return v.shards.count(0) ? v.shards.at(0).sample.inserted_transitions() : uint64_t(0);
+  }
+};
+
+void StartSecuredRun(ReplayCluster& c, const fs::path& dir, SecuredRun* run) {
+  c.shards_n = 1;
+  c.actors_n = 1;
+  c.StartShards({"--set", "dds.security=" + dir.string()});
+  // the actors of the harness take no extra flags: start this one by hand, secured
+  auto argv = c.Common("coins-actor", "actor-0", 0);
+  argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=0", "--set", "run.steps=0",
+                           "--set", "actor.batch_rows=64", "--set", "dds.security=" + dir.string()});
+  auto actor = ChildProcess::Spawn("actor-0", argv, (c.dir / "actor-0.log").string());
+  ASSERT_TRUE(actor.ok());
+  c.actors.push_back(std::move(*actor));
+  run->monitor = Participant(c.domain, dir, "monitor");
+  ASSERT_TRUE(run->monitor);
+  auto watch = StatusCollector::Start(*run->monitor);
+  ASSERT_TRUE(watch.ok()) << watch.status().message();
+  run->watch = std::move(*watch);
+  ASSERT_TRUE(WaitUntil([&] { return run->stored() > 2000; }, 60s))
+      << "nothing stored in the secured run: " << ReadText(c.dir / "replay-0.log") << ReadText(c.dir / "actor-0.log");
+}
+
 TEST(Security, InitWritesACaIdentitiesAndSignedDocuments) {
   const fs::path base = TempDir("security-init");
   const fs::path dir = InitSecurity(base);
@@ -64,30 +96,11 @@ TEST(Security, InitWritesACaIdentitiesAndSignedDocuments) {
 TEST(Security, ASecuredRunStoresDataAndOutsidersSeeAndStopNothing) {
   ReplayCluster c{TempDir("security-run"), TestDomain()};
   const fs::path dir = InitSecurity(c.dir);
-  c.shards_n = 1;
-  c.actors_n = 1;
-  const std::vector<std::string> secured = {"--set", "dds.security=" + dir.string()};
-  c.StartShards(secured);
-  c.actors_n = 1;
-  // the actors of the harness take no extra flags: start this one by hand, secured
-  auto argv = c.Common("coins-actor", "actor-0", 0);
-  argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=0", "--set", "run.steps=0",
-                           "--set", "dds.security=" + dir.string()});
-  auto actor = ChildProcess::Spawn("actor-0", argv, (c.dir / "actor-0.log").string());
-  ASSERT_TRUE(actor.ok());
-  c.actors.push_back(std::move(*actor));
-
-  // a monitor identity reads the status
-  auto monitor = Participant(c.domain, dir, "monitor");
-  ASSERT_TRUE(monitor);
-  auto watch = StatusCollector::Start(*monitor);
-  ASSERT_TRUE(watch.ok()) << watch.status().message();
-  auto stored = [&] {
-    auto v = (*watch)->Snapshot();
-    return v.shards.count(0) ? v.shards.at(0).sample.inserted_transitions() : uint64_t(0);
-  };
-  ASSERT_TRUE(WaitUntil([&] { return stored() > 5000; }, 60s))
-      << "nothing stored in the secured run: " << ReadText(c.dir / "replay-0.log") << ReadText(c.dir / "actor-0.log");
+  SecuredRun run;
+  StartSecuredRun(c, dir, &run);
+  if (HasFatalFailure()) return;
+  auto stored = [&] { return run.stored(); };
+  auto& monitor = run.monitor;
 
   // a participant without an identity discovers nothing of the run ...
   auto outsider = Participant(c.domain, dir, "");
@@ -145,24 +158,10 @@ std::string PrefixOf(dds::Node& n) {
 TEST(Security, ForgedBatchesAndControlAreRefusedCountedAndNamed) {
   ReplayCluster c{TempDir("security-forged"), TestDomain()};
   const fs::path dir = InitSecurity(c.dir);
-  c.shards_n = 1;
-  c.actors_n = 1;
-  c.StartShards({"--set", "dds.security=" + dir.string()});
-  auto argv = c.Common("coins-actor", "actor-0", 0);
-  argv.insert(argv.end(), {"--set", "actor.follow_chain=false", "--set", "actor.steps=0", "--set", "run.steps=0",
-                           "--set", "actor.batch_rows=64", "--set", "dds.security=" + dir.string()});
-  auto actor = ChildProcess::Spawn("actor-0", argv, (c.dir / "actor-0.log").string());
-  ASSERT_TRUE(actor.ok());
-  c.actors.push_back(std::move(*actor));
-  auto monitor = Participant(c.domain, dir, "monitor");
-  ASSERT_TRUE(monitor);
-  auto watch = StatusCollector::Start(*monitor);
-  ASSERT_TRUE(watch.ok()) << watch.status().message();
-  auto stored = [&] {
-    auto v = (*watch)->Snapshot();
-    return v.shards.count(0) ? v.shards.at(0).sample.inserted_transitions() : uint64_t(0);
-  };
-  ASSERT_TRUE(WaitUntil([&] { return stored() > 2000; }, 60s)) << ReadText(c.dir / "replay-0.log");
+  SecuredRun run;
+  StartSecuredRun(c, dir, &run);
+  if (HasFatalFailure()) return;
+  auto stored = [&] { return run.stored(); };
 
   // an actor's key may write transitions but not read them: no copy to re-number
   auto insider = Participant(c.domain, dir, "actor");

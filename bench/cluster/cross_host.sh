@@ -21,35 +21,13 @@ NET=10.252.$((TAG % 250))
 WORK=$(mktemp -d /tmp/coins-cross-host.XXXXXX)
 DOMAIN=$((200 + TAG % 19))
 
-ns() { echo "coinsb$TAG-h$1"; }
+source "$(dirname "$0")/hosts.sh"
 cleanup() {
-  for h in 1 2; do
-    ip netns pids "$(ns $h)" 2>/dev/null | xargs -r kill -9 || true
-    ip netns del "$(ns $h)" 2>/dev/null || true
-  done
-  ip link del "cbb$TAG" 2>/dev/null || true
+  hosts_down
   rm -rf "$WORK"
 }
 trap cleanup EXIT
-
-ip link add "cbb$TAG" type bridge
-ip link set "cbb$TAG" up
-for h in 1 2; do
-  ip netns add "$(ns $h)"
-  ip link add "cvb$TAG$h" type veth peer name "cvb$TAG${h}i"
-  ip link set "cvb$TAG${h}i" netns "$(ns $h)"
-  ip link set "cvb$TAG$h" master "cbb$TAG" up
-  ip netns exec "$(ns $h)" ip link set lo up
-  ip netns exec "$(ns $h)" ip addr add "$NET.$h/24" dev "cvb$TAG${h}i"
-  ip netns exec "$(ns $h)" ip link set "cvb$TAG${h}i" up
-done
-
-# on_host H COMMAND...: runs COMMAND on host H with the host's own /dev/shm
-on_host() {
-  local h=$1
-  shift
-  ip netns exec "$(ns "$h")" sh -c 'mount -t tmpfs tmpfs /dev/shm && exec "$@"' sh "$@"
-}
+hosts_up 2 "$NET"
 
 # one measurement; prints transitions/s
 measure() {
@@ -67,7 +45,7 @@ measure() {
   # shm: both processes on host 1 in its namespace's one /dev/shm (the machine's); udp: the shard
   # on host 2, each host with a /dev/shm of its own
   local run_shard=(on_host "$shard_host") run_actor=(on_host 1)
-  if [ "$mode" = shm ]; then run_shard=(ip netns exec "$(ns 1)") run_actor=(ip netns exec "$(ns 1)"); fi
+  if [ "$mode" = shm ]; then run_shard=(ip netns exec "$(host_ns 1)") run_actor=(ip netns exec "$(host_ns 1)"); fi
   "${run_shard[@]}" "$BIN/coins-replay" --name replay-0 --id 0 --stats-out "$WORK/replay.json" "${common[@]}" \
     > "$WORK/replay.log" 2>&1 &
   local shard=$!

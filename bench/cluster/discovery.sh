@@ -23,35 +23,18 @@ WORK=$(mktemp -d /tmp/coins-discovery.XXXXXX)
 DOMAIN=$((180 + TAG % 19))
 HOSTS=4
 
-ns() { echo "coinsd$TAG-h$1"; }
-veth() { echo "cvd$TAG$1"; }
+source "$(dirname "$0")/hosts.sh"
 cleanup() {
-  for ((h = 1; h <= HOSTS; h++)); do
-    ip netns pids "$(ns $h)" 2> /dev/null | xargs -r kill -9 || true
-    ip netns del "$(ns $h)" 2> /dev/null || true
-  done
-  ip link del "cbd$TAG" 2> /dev/null || true
+  hosts_down
   rm -rf "$WORK"
 }
 trap cleanup EXIT
-
-ip link add "cbd$TAG" type bridge
-ip link set "cbd$TAG" up
-for ((h = 1; h <= HOSTS; h++)); do
-  ip netns add "$(ns $h)"
-  ip link add "$(veth $h)" type veth peer name "$(veth $h)i"
-  ip link set "$(veth $h)i" netns "$(ns $h)"
-  ip link set "$(veth $h)" master "cbd$TAG" up
-  ip netns exec "$(ns $h)" ip link set lo up
-  ip netns exec "$(ns $h)" ip addr add "$NET.$h/24" dev "$(veth $h)i"
-  ip netns exec "$(ns $h)" ip link set "$(veth $h)i" up multicast on
-  ip netns exec "$(ns $h)" ip route add 224.0.0.0/4 dev "$(veth $h)i"
-done
+hosts_up "$HOSTS" "$NET"
 
 # packets the hosts sent into the bridge so far
 sent_packets() {
   local n=0
-  for ((h = 1; h <= HOSTS; h++)); do n=$((n + $(cat "/sys/class/net/$(veth $h)/statistics/rx_packets"))); done
+  for ((h = 1; h <= HOSTS; h++)); do n=$((n + $(cat "/sys/class/net/$(host_link $h)/statistics/rx_packets"))); done
   echo $n
 }
 
@@ -68,7 +51,7 @@ measure() {
   rm -f "$WORK"/m-*.log
   local server_pid=""
   if [ "$mode" = server ]; then
-    ip netns exec "$(ns 1)" sh -c "mount -t tmpfs tmpfs /dev/shm && exec $BIN/coins discovery-server --index 0 --set dds.domain=$DOMAIN $dds" \
+    ip netns exec "$(host_ns 1)" sh -c "mount -t tmpfs tmpfs /dev/shm && exec $BIN/coins discovery-server --index 0 --set dds.domain=$DOMAIN $dds" \
       > "$WORK/server.log" 2>&1 &
     server_pid=$!
     sleep 1
@@ -84,7 +67,7 @@ measure() {
       script="$script
 $BIN/coins-discovery-member --name m-$m --members $MEMBERS $common > $WORK/m-$m.log 2>&1 &"
     done
-    ip netns exec "$(ns $h)" sh -c "$script
+    ip netns exec "$(host_ns $h)" sh -c "$script
 wait" &
     pids+=($!)
   done
@@ -96,7 +79,7 @@ wait" &
   done
   local p1
   p1=$(sent_packets)
-  for ((h = 2; h <= HOSTS; h++)); do ip netns pids "$(ns $h)" | xargs -r kill -TERM 2> /dev/null || true; done
+  for ((h = 2; h <= HOSTS; h++)); do ip netns pids "$(host_ns $h)" | xargs -r kill -TERM 2> /dev/null || true; done
   wait "${pids[@]}" 2> /dev/null || true
   if [ -n "$server_pid" ]; then kill -TERM "$server_pid" 2> /dev/null || true; wait "$server_pid" 2> /dev/null || true; fi
   if [ "$done_n" -lt "$MEMBERS" ]; then

@@ -88,4 +88,5 @@ print(f"transitions_per_s_udp_two_hosts {mu:.0f}")
 print(f"transitions_per_s_udp_secured_two_hosts {mc:.0f}")
 print(f"udp_over_shm {mu / ms:.2f}")
 print(f"udp_secured_over_shm {mc / ms:.2f}")
+print(f"udp_secured_over_udp {mc / mu:.2f}")
 PY

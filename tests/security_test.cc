@@ -6,6 +6,7 @@
 #include <openssl/x509.h>
 
 #include <cstdio>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -268,6 +269,33 @@ void WriteExpiredIdentity(const fs::path& dir, const std::string& role) {
   PEM_write_X509(out, cert);
   std::fclose(out);
   X509_free(cert), X509_free(old), X509_free(ca), EVP_PKEY_free(ca_key);
+}
+
+// a whole secured `coins run`: every role's process authenticates with its own identity and opens
+// only topics its permissions allow (a topic missing from a role's permissions fails here); the
+// chain finds its first link and every transition is stored
+TEST(Security, AWholeSecuredRunFindsTheFirstLinkAndStoresEverything) {
+  const fs::path base = TempDir("security-whole-run");
+  const fs::path dir = InitSecurity(base);
+  const fs::path run = base / "run";
+  auto r = RunCommand(Bin("coins") + " run --quiet --steps 20000 --actors 2 --shards 2 --dir " + run.string() +
+                          " --set dds.domain=" + std::to_string(TestDomain()) + " --set dds.security=" + dir.string() +
+                          " --set detector.passive_steps=500 --set detector.passive_hard_steps=300"
+                          " --set detector.active_steps=1000",
+                      300s);
+  EXPECT_EQ(r.code, 0) << r.output;
+  for (int a = 0; a < 2; ++a)
+    EXPECT_TRUE(std::regex_search(r.output, std::regex("actor-" + std::to_string(a) +
+                                                       R"(: (\d+) transitions published, \1 stored \(all stored\))")))
+        << r.output;
+  const std::string phase = ChainState(run).value("phase", "");
+  EXPECT_TRUE(phase == "training-skill" || phase == "done") << r.output;
+  EXPECT_NE(r.output.find("Action->Paddle"), std::string::npos) << r.output;
+  for (const auto& entry : fs::directory_iterator(run / "logs")) {
+    const std::string log = ReadText(entry.path());
+    EXPECT_EQ(log.find("allow rule"), std::string::npos) << entry.path() << ":\n" << log;
+    EXPECT_EQ(log.find("refused participant"), std::string::npos) << entry.path() << ":\n" << log;
+  }
 }
 
 TEST(Security, UnsupportedOrIncompleteSetUpsAreRefusedBeforeStarting) {

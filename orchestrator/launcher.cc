@@ -91,8 +91,7 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     }
   }
   // the servers, here or elsewhere, answer before any process that moves data starts
-  COINS_RETURN_IF_ERROR(node.AwaitDiscoveryServer(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(c.dds.server_wait_s))));
+  COINS_RETURN_IF_ERROR(node.AwaitDiscoveryServer());
   for (int64_t k : roles.shard_ids)
     COINS_RETURN_IF_ERROR(sup.Start(spec("coins-replay", fmt::format("replay-{}", k), k, true)));
   if (roles.Has("learner")) COINS_RETURN_IF_ERROR(sup.Start(spec("coins-learner", "learner", -1, true)));

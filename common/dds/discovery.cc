@@ -136,8 +136,11 @@ Status ConfigureParticipant(const DdsOptions& options, eprosima::fastdds::dds::D
 
 bool IsServerPrefix(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) {
   // the prefixes differ only in byte 2, the server's index
-  eprosima::fastrtps::rtps::GuidPrefix_t server;
-  std::istringstream(ServerPrefix(0)) >> server;
+  static const eprosima::fastrtps::rtps::GuidPrefix_t server = [] {
+    eprosima::fastrtps::rtps::GuidPrefix_t p;
+    std::istringstream(ServerPrefix(0)) >> p;
+    return p;
+  }();
   for (size_t i = 0; i < eprosima::fastrtps::rtps::GuidPrefix_t::size; ++i)
     if (i != 2 && prefix.value[i] != server.value[i]) return false;
   return true;

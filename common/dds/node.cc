@@ -40,8 +40,7 @@ Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std:
 Result<std::unique_ptr<Node>> Node::Join(const DdsOptions& options, const std::string& name) {
   auto node = Create(options, name);
   if (!node.ok()) return node;
-  COINS_RETURN_IF_ERROR((*node)->AwaitDiscoveryServer(
-      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(options.server_wait_s))));
+  COINS_RETURN_IF_ERROR((*node)->AwaitDiscoveryServer());
   return node;
 }
 
@@ -80,10 +79,13 @@ Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainPartic
   return std::unique_ptr<Node>(new Node(options, p, id, std::move(events)));
 }
 
-Status Node::AwaitDiscoveryServer(std::chrono::nanoseconds timeout) const {
-  if (options_.discovery != "server" || events_->AwaitServer(timeout)) return Status::Ok();
+Status Node::AwaitDiscoveryServer() const {
+  const std::chrono::duration<double> timeout(options_.server_wait_s);
+  if (options_.discovery != "server" ||
+      events_->AwaitServer(std::chrono::duration_cast<std::chrono::nanoseconds>(timeout)))
+    return Status::Ok();
   return Errorf("dds: no discovery server answered at {} (dds.discovery_server) within {:g} s",
-                options_.discovery_server, std::chrono::duration<double>(timeout).count());
+                options_.discovery_server, timeout.count());
 }
 
 Node::~Node() {

@@ -173,9 +173,9 @@ class Node {
   int participant_id() const { return participant_id_; }
   // remote participants refused by DDS Security (authentication failed); 0 without security
   uint64_t refused_participants() const { return events_->refused(); }
-  // with dds.discovery: server, waits until a discovery server of dds.discovery_server answers;
-  // the error names the addresses (nothing else to do: Ok at once)
-  Status AwaitDiscoveryServer(std::chrono::nanoseconds timeout) const;
+  // with dds.discovery: server, waits up to dds.server_wait_s until a discovery server of
+  // dds.discovery_server answers; the error names the addresses (other modes: Ok at once)
+  Status AwaitDiscoveryServer() const;
 
  private:
   Node(const DdsOptions& options, fdds::DomainParticipant* p, int participant_id,

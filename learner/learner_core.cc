@@ -162,12 +162,20 @@ Result<bool> LearnerCore::Work(SampleSource* source, uint64_t env_steps, Outputs
 
 Result<bool> LearnerCore::DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out) {
   std::vector<std::string> targets(command_.targets().begin(), command_.targets().end());
-  auto round = RunDetectRound(source, env_, command_.source(), targets, int64_t(env_steps), RoundOptions());
+  // the round scores the data collected up to the detect point: the command's step_base. The
+  // learner's own count comes from periodic actor reports and may still lag it (actors reach a
+  // 10k detect point within a second)
+  const uint64_t collected = std::max<uint64_t>(env_steps, command_.step_base());
+  auto round = RunDetectRound(source, env_, command_.source(), targets, int64_t(collected), RoundOptions());
   if (!round.ok()) {
     if (IsWaiting(round.status())) {
       status_.message(round.status().message());
       return false;
     }
+    // a failed round is not run again for the same command: the orchestrator reacts to the
+    // failure (collects more and sends a new round)
+    detect_done_seq_ = command_.seq();
+    status_.state("failed");
     return round.status();
   }
   msg::InteractionScores scores;

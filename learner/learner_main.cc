@@ -159,6 +159,7 @@ void LearnerProcess::TakeCommands() {
     return;
   }
   spdlog::info("command {}: phase {}, job {}", newest.seq(), newest.phase(), newest.job());
+  failure_.clear();  // a failure belongs to the command that had it
   last_scores_.clear();
   PublishOutputs(t_, out_);
 }

@@ -103,11 +103,11 @@ Status LocalRun::StepActors(uint64_t steps) {
   return Status::Ok();
 }
 
-Result<int> LocalRun::LearnerWork(int slices) {
+Result<int> LocalRun::LearnerWork(int slices, std::optional<uint64_t> counted_steps) {
   int done = 0;
   LearnerCore::Outputs out;
   for (int i = 0; i < slices; ++i) {
-    auto worked = learner_->Work(source_.get(), env_steps(), &out);
+    auto worked = learner_->Work(source_.get(), counted_steps.value_or(env_steps()), &out);
     if (!worked.ok()) return worked.status();
     scores_.insert(scores_.end(), out.scores.begin(), out.scores.end());
     out.scores.clear();

@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,8 +45,10 @@ class LocalRun {
   Status Command(const msg::ChainCommand& command);
   // every actor steps until it has taken `steps` more or reached its pacing allowance
   Status StepActors(uint64_t steps);
-  // up to `slices` of learner work; returns the slices that did something
-  Result<int> LearnerWork(int slices);
+  // up to `slices` of learner work; returns the slices that did something. counted_steps: the
+  // env steps the learner believes were taken (its process counts them from periodic actor
+  // reports, which lag); default: the actors' own count
+  Result<int> LearnerWork(int slices, std::optional<uint64_t> counted_steps = std::nullopt);
 
   uint64_t env_steps() const;
   // every InteractionScores the learner produced, oldest first

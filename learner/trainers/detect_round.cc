@@ -77,7 +77,10 @@ Result<PairData> SamplePairData(SampleSource* source, const detector::PairSpace&
     o.tick();
   }
   if (d.train.size() == 0 || d.held_out.size() == 0)
-    return Errorf("no primitive transitions of {} in replay to train and score on", space.sub.factors.back().name);
+    return Errorf(
+        "too few primitive transitions of {} in replay to train and score on: {} distinct of {} wanted ({} to "
+        "train, {} held out)",
+        space.sub.factors.back().name, seen.size(), wanted, d.train.size(), d.held_out.size());
   return d;
 }
 

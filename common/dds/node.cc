@@ -52,8 +52,19 @@ Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& opti
 }
 
 Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos) {
-  // an id whose ports no killed process left behind (participant_ids.h)
+  // an id whose ports no killed process left behind (participant_ids.h), chosen under the
+  // machine-wide lock that lasts until this participant's ports are open
   const int domain = static_cast<int>(options.domain);
+  const ParticipantIdLock id_lock(domain);
+  if (!id_lock.held()) {
+    static std::once_flag warned;
+    std::call_once(warned, [&] {
+      spdlog::warn(
+          "dds: no lock of domain {}'s participant ids (/dev/shm); a process starting at the same moment "
+          "may take the same id",
+          domain);
+    });
+  }
   const int id = TakeParticipantId(domain);
   if (id >= 0) {
     qos.wire_protocol().participant_id = id;

@@ -6,6 +6,8 @@
 
 #include <mutex>
 #include <set>
+#include <string>
+#include <thread>
 #include <utility>
 
 #include "common/dds/domain_lease.h"
@@ -41,6 +43,25 @@ bool Unlocked(const std::string& path) {
 }
 
 }  // namespace
+
+ParticipantIdLock::ParticipantIdLock(int domain, std::chrono::milliseconds wait) {
+  const std::string path = "/dev/shm/coins_participant_ids_" + std::to_string(domain) + ".lock";
+  const int fd = ::open(path.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0666);
+  if (fd < 0) return;
+  const auto deadline = std::chrono::steady_clock::now() + wait;
+  while (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    if (std::chrono::steady_clock::now() >= deadline) {
+      ::close(fd);
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  fd_ = fd;
+}
+
+ParticipantIdLock::~ParticipantIdLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing drops the lock
+}
 
 int TakeParticipantId(int domain, int limit) {
   std::lock_guard<std::mutex> lock(held_mu);

@@ -12,9 +12,33 @@
 // them, discovery included (the actor's stalled transition stream of the replay tests, the
 // upstream fix is not in 2.9). A participant that takes an id whose ports carry no lock file
 // never meets that segment.
+//
+// Choosing an id and opening its ports must be one step across processes: processes started
+// together (a launcher's children) would otherwise all see the same lowest id free, and the
+// second to open that id's shared-memory port regenerates the first one's segment, which is
+// then never heard (seen: a secured run whose two actors matched nobody for minutes, since a
+// secured participant takes ~0.1 s from the choice to its ports). ParticipantIdLock makes it one.
 #pragma once
 
+#include <chrono>
+
 namespace coins::dds {
+
+// A machine-wide exclusive lock of one domain's participant ids (flock on a file in /dev/shm),
+// to be held from TakeParticipantId until the new participant has opened its ports. Waits at
+// most `wait` for another holder; without the lock after that (or without /dev/shm), held() is
+// false and the caller goes on unlocked. Not inherited by child processes.
+class ParticipantIdLock {
+ public:
+  explicit ParticipantIdLock(int domain, std::chrono::milliseconds wait = std::chrono::seconds(20));
+  ~ParticipantIdLock();
+  ParticipantIdLock(const ParticipantIdLock&) = delete;
+  ParticipantIdLock& operator=(const ParticipantIdLock&) = delete;
+  bool held() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
 
 // ids a participant may take: the unicast initial peers of local discovery reach this many
 inline constexpr int kParticipantIdLimit = 64;

@@ -5,11 +5,14 @@
 #include "common/dds/participant_ids.h"
 
 #include <fcntl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include <set>
 #include <string>
+#include <vector>
 
 #include "common/dds/domain_lease.h"
 #include "common/dds/node.h"
@@ -37,6 +40,69 @@ std::unique_ptr<Node> MakeNode(int domain) {
   auto n = Node::Create(o, "participant-ids-test");
   EXPECT_TRUE(n.ok()) << n.status().message();
   return n.ok() ? std::move(*n) : nullptr;
+}
+
+// a child process: waits for `go` to close, creates a participant on `domain`, reports its id
+// and keeps the participant until `hold` closes
+[[noreturn]] void ParticipantChild(int domain, int go, int report, int hold) {
+  char c;
+  while (::read(go, &c, 1) > 0) {
+  }
+  DdsOptions o;
+  o.domain = uint32_t(domain);
+  auto node = Node::Create(o, "participant-ids-child");
+  const int id = node.ok() ? (*node)->participant_id() : -2;
+  if (::write(report, &id, sizeof(id)) != ssize_t(sizeof(id))) _exit(3);
+  while (::read(hold, &c, 1) > 0) {
+  }
+  _exit(0);
+}
+
+// The test process must not have started Fast DDS's threads when it forks: ctest runs each test
+// in a process of its own, and this one is the first of its file. Processes that create their participants at the same
+// moment (a launcher's children) get distinct ids (before the machine-wide lock they all took id 0 and regenerated each
+// other's shared-memory ports)
+TEST(ParticipantIds, ProcessesStartingTogetherNeverShareAnId) {
+  auto lease = DomainLease::Acquire();
+  ASSERT_TRUE(lease.ok()) << lease.status().message();
+  const int d = lease->domain();
+  int go[2], report[2], hold[2];
+  ASSERT_EQ(::pipe(go), 0);
+  ASSERT_EQ(::pipe(report), 0);
+  ASSERT_EQ(::pipe(hold), 0);
+  const int n = 8;
+  std::vector<pid_t> children;
+  for (int i = 0; i < n; ++i) {
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::close(go[1]);
+      ::close(report[0]);
+      ::close(hold[1]);
+      ParticipantChild(d, go[0], report[1], hold[0]);
+    }
+    children.push_back(pid);
+  }
+  ::close(go[0]);
+  ::close(report[1]);
+  ::close(hold[0]);
+  ::close(go[1]);  // all of them start now
+  std::multiset<int> ids;
+  for (int i = 0; i < n; ++i) {
+    int id = -1;
+    ASSERT_EQ(::read(report[0], &id, sizeof(id)), ssize_t(sizeof(id)));
+    ids.insert(id);
+  }
+  ::close(hold[1]);
+  for (pid_t p : children) {
+    int status = 0;
+    ASSERT_EQ(::waitpid(p, &status, 0), p);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  }
+  std::string all;
+  for (int id : ids) all += std::to_string(id) + " ";
+  EXPECT_EQ(std::set<int>(ids.begin(), ids.end()).size(), size_t(n)) << "ids: " << all;
+  EXPECT_EQ(ids.count(-1) + ids.count(-2), 0u) << "ids: " << all;
 }
 
 TEST(ParticipantIds, ANewParticipantSkipsTheIdsOfKilledProcessesPorts) {

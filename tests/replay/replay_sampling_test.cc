@@ -66,8 +66,16 @@ TEST(ReplaySampling, FeatureSubsetLevelMaskedGoalRequestsRoundTripThroughShards)
   auto client = c.Client(o);
   ASSERT_TRUE(client->WaitForShards(20s));
   SampleColumns cols;
-  Status s = client->Sample(GoalStream::Spec(), 512, &cols);
-  ASSERT_TRUE(s.ok()) << s.message();
+  Status s;
+  // a batch from both shards (on a loaded machine a shard's first reply can miss the client's
+  // first round, which then samples the other shard alone)
+  auto from_both = [&] {
+    std::set<uint32_t> shards;
+    for (uint32_t i = 0; i < cols.n; ++i) shards.insert(KeyShard(cols.key[i]));
+    return shards.size() == 2;
+  };
+  ASSERT_TRUE(WaitUntil([&] { return (s = client->Sample(GoalStream::Spec(), 512, &cols)).ok() && from_both(); }, 20s))
+      << s.message();
   ASSERT_EQ(cols.n, 512u);
   EXPECT_EQ(cols.state_dim, GoalStream::kStateDim);
   int relabelled = 0;

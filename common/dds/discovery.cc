@@ -17,8 +17,6 @@ namespace coins::dds {
 
 namespace {
 
-constexpr uint32_t kSharedMemoryHealthyCheckMs = 10000;
-
 using eprosima::fastdds::rtps::SharedMemTransportDescriptor;
 using eprosima::fastdds::rtps::UDPv4TransportDescriptor;
 using eprosima::fastrtps::rtps::DiscoveryProtocol_t;
@@ -71,13 +69,6 @@ void AddTransports(const DdsOptions& options, eprosima::fastdds::dds::DomainPart
   qos.transport().use_builtin_transports = false;
   auto shm = std::make_shared<SharedMemTransportDescriptor>();
   shm->segment_size(static_cast<uint32_t>(options.shm_segment_mb) * 1024 * 1024);
-  // a process opening a port that already has a listener checks that the listener answers
-  // within this time, else takes the port for a killed process's and regenerates it: the live
-  // listener is then never heard again. Fast DDS's 1 s is shorter than a listener's thread may
-  // wait for a CPU on a loaded 2-core machine (seen: a shard or an actor silent for a whole run).
-  // Ports of killed processes are not opened by new participants (participant_ids.h), so the
-  // longer check costs nothing on the usual paths
-  shm->healthy_check_timeout_ms(kSharedMemoryHealthyCheckMs);
   qos.transport().user_transports.push_back(shm);
   auto udp = std::make_shared<UDPv4TransportDescriptor>();
   udp->maxInitialPeersRange = 64;

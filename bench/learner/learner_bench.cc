@@ -37,6 +37,7 @@
 #include "common/dds/topics.h"
 #include "common/figures.h"
 #include "common/process.h"
+#include "common/transition_batch.h"
 #include "idl/transitionPubSubTypes.h"
 #include "learner/replay_client/in_process_source.h"
 #include "learner/replay_client/prefetcher.h"
@@ -109,6 +110,7 @@ void FeedShard(const std::vector<std::unique_ptr<msg::TransitionBatch>>& batches
     b.actor_id(actor);
     b.incarnation(1000 + actor);
     b.seq(seq);
+    b.payload_hash(PayloadHash(b));  // the hash covers the header too
     sent += CountTransitions(b);
     sink(b);
   }

@@ -124,6 +124,22 @@ TEST(Cli, BadNumbersToTheBenchmarksAreErrorsNotHangs) {
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(30));
 }
 
+// the learner benchmark's DDS shards store what it sends and it measures both sources (it failed
+// with "shard 0 did not report its transitions" once the payload hash covered the header, since it
+// renumbered its batches without rehashing them)
+TEST(Cli, TheLearnerBenchmarkSamplesFromDdsShardsAndInProcess) {
+  auto r =
+      RunCommand(Bin("coins") + " bench learner --fill 10000 --seconds 0.5 --repeats 1 --shards 1 --json --domain " +
+                 std::to_string(TestDomain()));
+  ASSERT_EQ(r.code, 0) << r.output;
+  // the JSON object is the last line
+  const size_t line = r.output.rfind("\n{");
+  const auto j = nlohmann::json::parse(r.output.substr(line == std::string::npos ? 0 : line + 1), nullptr, false);
+  ASSERT_TRUE(j.is_object()) << r.output;
+  EXPECT_GT(j.value("learner_updates_per_s_dds", 0.0), 10.0) << r.output;
+  EXPECT_GT(j.value("learner_updates_per_s_inprocess", 0.0), 10.0) << r.output;
+}
+
 TEST(Cli, HelpOnEverySubcommand) {
   for (const char* sub : {"run", "monitor", "bench"}) {
     auto r = RunCommand(Bin("coins") + " " + sub + " --help");

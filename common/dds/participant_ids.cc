@@ -45,7 +45,7 @@ bool Unlocked(const std::string& path) {
 }  // namespace
 
 ParticipantIdLock::ParticipantIdLock(int domain, std::chrono::milliseconds wait) {
-  const std::string path = "/dev/shm/coins_participant_ids_" + std::to_string(domain) + ".lock";
+  const std::string path = std::string(kSharedMemoryDir) + "/coins_participant_ids_" + std::to_string(domain) + ".lock";
   const int fd = ::open(path.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0666);
   if (fd < 0) return;
   const auto deadline = std::chrono::steady_clock::now() + wait;

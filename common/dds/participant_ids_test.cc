@@ -58,10 +58,10 @@ std::unique_ptr<Node> MakeNode(int domain) {
   _exit(0);
 }
 
-// The test process must not have started Fast DDS's threads when it forks: ctest runs each test
-// in a process of its own, and this one is the first of its file. Processes that create their participants at the same
-// moment (a launcher's children) get distinct ids (before the machine-wide lock they all took id 0 and regenerated each
-// other's shared-memory ports)
+// Processes that create their participants at the same moment (a launcher's children) get
+// distinct ids (before the machine-wide lock they all took id 0 and regenerated each other's
+// shared-memory ports). The test process must not have started Fast DDS's threads when it forks:
+// ctest runs each test in a process of its own, and this one is the first of its file.
 TEST(ParticipantIds, ProcessesStartingTogetherNeverShareAnId) {
   auto lease = DomainLease::Acquire();
   ASSERT_TRUE(lease.ok()) << lease.status().message();

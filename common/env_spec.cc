@@ -20,4 +20,18 @@ int EnvSpec::factor_offset(int i) const {
   return off;
 }
 
+std::string EnvSpec::feature_name(int index) const {
+  int off = 0;
+  for (const FactorSpec& f : factors) {
+    if (index >= off && index < off + f.size()) {
+      const int within = index - off;
+      const std::string& feature = f.feature_names[size_t(within % f.features)];
+      if (!f.multi_instance) return f.name + "." + feature;
+      return f.name + "[" + std::to_string(within / f.features) + "]." + feature;
+    }
+    off += f.size();
+  }
+  return "outside the state";
+}
+
 }  // namespace coins::envs

@@ -50,6 +50,8 @@ struct EnvSpec {
   int factor_index(const std::string& name) const;
   // offset of factor i's first float in the state vector
   int factor_offset(int i) const;
+  // what state feature `index` is: "Ball.vy", "Block[3].attr"; "outside the state" past its end
+  std::string feature_name(int index) const;
 };
 
 }  // namespace coins::envs

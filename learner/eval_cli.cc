@@ -14,6 +14,7 @@
 #include "common/cli_checks.h"
 #include "common/config/config.h"
 #include "common/run_options.h"
+#include "learner/checkpoint_dirs.h"
 #include "learner/learner_core.h"
 
 namespace coins {
@@ -22,51 +23,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// the newest learner checkpoint of a run directory, or the asked epoch
-Result<std::string> FindCheckpoint(const std::string& run_dir, int64_t epoch) {
-  const fs::path dir = fs::path(run_dir) / "checkpoints";
-  if (epoch >= 0) {
-    const fs::path p = dir / fmt::format("learner-epoch-{}", epoch);
-    if (!fs::exists(p / "state.json")) return Errorf("{}: no learner checkpoint of epoch {}", run_dir, epoch);
-    return p.string();
-  }
-  int64_t best = -1;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string n = e.path().filename().string();
-    if (n.rfind("learner-epoch-", 0) != 0 || !fs::exists(e.path() / "state.json")) continue;
-    const std::string d = n.substr(14);
-    if (d.empty() || d.size() > 15 || d.find_first_not_of("0123456789") != std::string::npos) continue;
-    best = std::max<int64_t>(best, std::stoll(d));
-  }
-  if (best < 0) return Errorf("{}: no learner checkpoint (checkpoints/learner-epoch-N/state.json)", run_dir);
-  return (dir / fmt::format("learner-epoch-{}", best)).string();
-}
-
 // the run's env from RUN_DIR/config.yaml
 Result<std::string> RunEnv(const std::string& run_dir) {
   RunOptions run;
   ConfigLoader loader({ConfigSection::Of("run", run)});
   if (Status s = loader.LoadFile((fs::path(run_dir) / "config.yaml").string()); !s.ok()) return s;
   return run.env;
-}
-
-// every observed feature and goal of a level means the same in both envs
-Status CheckFits(const policy::LevelSpec& s, const envs::EnvSpec& trained, const envs::EnvSpec& target) {
-  auto where = [](const envs::EnvSpec& e, int index) -> std::string {
-    int off = 0;
-    for (const auto& f : e.factors) {
-      if (index < off + f.size())
-        return fmt::format("{}.{}", f.name, f.feature_names[size_t((index - off) % f.features)]);
-      off += f.size();
-    }
-    return "outside the state";
-  };
-  for (int i : s.obs_index)
-    if (where(trained, i) != where(target, i))
-      return Errorf("{} observes {} in {}, but that is {} in {}", s.name, where(trained, i), trained.name,
-                    where(target, i), target.name);
-  return Status::Ok();
 }
 
 int FindLevel(const LearnerCore& core, const std::string& skill, std::string* names) {
@@ -189,7 +151,7 @@ Status RunEval(const EvalFlags& f) {
                         names.empty() ? "none" : names)
                : Errorf("--skill {}: not in {} (levels: {})", f.skill, *ckpt, names.empty() ? "none" : names);
   for (int L = 1; L <= level; ++L)
-    COINS_RETURN_IF_ERROR(CheckFits(core.trainer(L)->spec(), (*trained)->spec(), (*env)->spec()));
+    COINS_RETURN_IF_ERROR(CheckLevelFits(core.trainer(L)->spec(), (*trained)->spec(), (*env)->spec()));
   auto models = core.Models(level);
   if (!models.ok()) return models.status();
 

@@ -4,12 +4,14 @@
 // detector). The directory is written under a temporary name and renamed whole.
 #include <filesystem>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "common/files.h"
 #include "common/nn/serialize.h"
 #include "common/policy/weights_msg.h"
 #include "learner/learner_core.h"
+#include "learner/trainers/level_builder.h"
 
 namespace coins {
 
@@ -141,6 +143,72 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
   }
   has_command_ = false;  // the orchestrator's command (re)starts the job; the same seq continues it
   published_.clear();
+  return Status::Ok();
+}
+
+namespace {
+
+// the path of the first difference between two specs' JSON ("/obs_high/3"), or ""
+std::string FirstDifference(const json& a, const json& b) {
+  const json patch = json::diff(a, b);
+  return patch.empty() ? "" : patch.front().value("path", "?");
+}
+
+// a link detector trained in `trained` reads the same state features in `target` (its layout is
+// over the pair's compact state; `gather` maps that to the full state)
+Status FitDetector(detector::DetectorSpec& spec, const envs::EnvSpec& trained, const envs::EnvSpec& target) {
+  const detector::PairLayout& l = spec.layout;
+  for (int g : spec.gather)
+    if (trained.feature_name(g) != target.feature_name(g))
+      return Errorf("the {}->{} detector reads {} (state feature {}), which is {} in {}", l.source, l.target,
+                    trained.feature_name(g), g, target.feature_name(g), target.name);
+  spec.full_state_dim = target.state_dim();
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status LearnerCore::KeepSkillsFor(const envs::EnvSpec& target, const std::vector<msg::LinkSpec>& links) {
+  if (links.empty()) return Errorf("no skill to keep: the chain has no link");
+  std::vector<policy::LevelSpec> built;
+  std::map<std::string, LinkDetector> kept;
+  for (int L = 1; L <= int(links.size()); ++L) {
+    const msg::LinkSpec& link = links[size_t(L) - 1];
+    const std::string what = fmt::format("skill {} ({}->{})", L, link.source(), link.target());
+    PolicyTrainer* t = trainer(L);
+    if (!t) return Errorf("{}: the checkpoint has no trained level {}", what, L);
+    COINS_RETURN_IF_ERROR(policy::CheckLevelFits(t->spec(), env_, target).WithContext(what));
+    auto spec = BuildSkillSpec(target, link, L, L > 1 ? &built.back() : nullptr, Group(L, false));
+    if (!spec.ok()) return spec.status().WithContext(what + " in " + target.name);
+    const std::string diff = FirstDifference(ToJson(t->spec()), ToJson(*spec));
+    if (!diff.empty())
+      return Errorf(
+          "{}: the trained skill differs from the one the link builds in {} (at {}; a changed learner "
+          "option or env bounds)",
+          what, target.name, diff);
+    built.push_back(std::move(*spec));
+    if (built.back().detector.empty()) continue;
+    auto d = detectors_.find(link.target());
+    if (d == detectors_.end() || !d->second.det)
+      return Errorf("{}: the checkpoint has no {} detector", what, link.target());
+    COINS_RETURN_IF_ERROR(FitDetector(d->second.spec, env_, target).WithContext(what));
+    kept[link.target()] = std::move(d->second);
+  }
+  for (auto it = trainers_.begin(); it != trainers_.end();)
+    it = it->first > int(links.size()) ? trainers_.erase(it) : std::next(it);
+  detectors_ = std::move(kept);
+  specs_.clear();
+  published_.clear();
+  command_ = msg::ChainCommand();
+  has_command_ = false;
+  train_level_ = 0;
+  job_start_updates_ = 0;
+  detect_done_seq_ = 0;
+  next_eval_at_ = next_retrain_at_ = 0;
+  status_.total_updates(0);
+  status_.checkpoint_epoch(0);
+  status_.checkpoint_command(0);
+  ClearEval();
   return Status::Ok();
 }
 

@@ -59,6 +59,11 @@ class LearnerCore {
   Status SaveCheckpoint(const std::string& dir, uint64_t epoch, uint64_t command_id);
   // loads a checkpoint and starts a new generation of weights versions
   Status LoadCheckpoint(const std::string& dir);
+  // transfer (learner/transfer_checkpoint.h): after LoadCheckpoint, keeps only the skills of
+  // `links` (levels 1..links.size()) and their link detectors, each checked to be exactly what
+  // those links build in `target` (the transfer run's learner then takes them as they are), and
+  // forgets the task level, the job bookkeeping and the evaluation. Errors name the level.
+  Status KeepSkillsFor(const envs::EnvSpec& target, const std::vector<msg::LinkSpec>& links);
 
   // the acting models of levels 1..n as actors would hold them (evaluation)
   Result<std::unique_ptr<HierarchyModels>> Models(int levels) const;

@@ -18,6 +18,7 @@
 #include "idl/controlPubSubTypes.h"
 #include "idl/statusPubSubTypes.h"
 #include "idl/weightsPubSubTypes.h"
+#include "learner/checkpoint_dirs.h"
 #include "learner/learner_core.h"
 #include "learner/learner_options.h"
 #include "learner/replay_client/prefetcher.h"
@@ -70,39 +71,6 @@ class EnvSteps {
   EnvStepCount count_;
   msg::ActorStats scratch_;
 };
-
-std::string CheckpointDir(const RunOptions& run, uint64_t epoch) {
-  return (fs::path(run.dir) / "checkpoints" / ("learner-epoch-" + std::to_string(epoch))).string();
-}
-
-// the newest complete checkpoint (a directory with state.json), or -1
-int64_t NewestCheckpoint(const RunOptions& run) {
-  int64_t best = -1;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(fs::path(run.dir) / "checkpoints", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("learner-epoch-", 0) != 0 || name.find(".tmp") != std::string::npos) continue;
-    if (!fs::exists(e.path() / "state.json")) continue;
-    const std::string digits = name.substr(14);
-    if (digits.empty() || digits.size() > 15 || digits.find_first_not_of("0123456789") != std::string::npos) continue;
-    best = std::max<int64_t>(best, std::stoll(digits));
-  }
-  return best;
-}
-
-void PruneCheckpoints(const RunOptions& run, int64_t keep) {
-  std::vector<int64_t> epochs;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(fs::path(run.dir) / "checkpoints", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("learner-epoch-", 0) != 0 || name.find(".tmp") != std::string::npos) continue;
-    const std::string digits = name.substr(14);
-    if (!digits.empty() && digits.size() <= 15 && digits.find_first_not_of("0123456789") == std::string::npos)
-      epochs.push_back(std::stoll(digits));
-  }
-  std::sort(epochs.begin(), epochs.end());
-  for (size_t i = 0; i + size_t(keep) < epochs.size(); ++i) fs::remove_all(CheckpointDir(run, uint64_t(epochs[i])), ec);
-}
 
 void PublishOutputs(Topics& t, LearnerCore::Outputs& out) {
   for (const auto& s : out.scores) t.scores.Write(s);
@@ -178,12 +146,12 @@ void LearnerProcess::TakeControl() {
     std::error_code ec;
     fs::create_directories(fs::path(run_.dir) / "checkpoints", ec);
     const auto start = Clock::now();
-    if (Status s = core_->SaveCheckpoint(CheckpointDir(run_, epoch), epoch, c.command_id()); !s.ok()) {
+    if (Status s = core_->SaveCheckpoint(CheckpointDir(run_.dir, epoch), epoch, c.command_id()); !s.ok()) {
       spdlog::error("checkpoint epoch {}: {}", epoch, s.message());
       return;
     }
     last_checkpoint_command_ = c.command_id();
-    PruneCheckpoints(run_, options_.checkpoint_keep);
+    PruneCheckpoints(run_.dir, options_.checkpoint_keep);
     spdlog::info("checkpoint epoch {} written in {:.2f} s", epoch,
                  std::chrono::duration<double>(Clock::now() - start).count());
   });
@@ -246,9 +214,9 @@ int LearnerMain(int argc, char** argv) {
   auto env = envs::MakeEnv(run.env);
   if (!env.ok()) return ExitWithError(env.status().WithContext("run.env"), 2);
   auto core = std::make_unique<LearnerCore>((*env)->spec(), options, uint64_t(run.seed));
-  const int64_t epoch = resume_epoch >= 0 ? resume_epoch : NewestCheckpoint(run);
+  const int64_t epoch = resume_epoch >= 0 ? resume_epoch : NewestCheckpointEpoch(run.dir);
   if (epoch >= 0) {
-    if (Status s = core->LoadCheckpoint(CheckpointDir(run, uint64_t(epoch))); !s.ok())
+    if (Status s = core->LoadCheckpoint(CheckpointDir(run.dir, uint64_t(epoch))); !s.ok())
       return ExitWithError(s.WithContext("resume"), 2);
     spdlog::info("resumed from checkpoint epoch {}", epoch);
   }

@@ -369,4 +369,23 @@ std::string ChainMachine::Describe() const {
   return s_.note;
 }
 
+Result<ChainState> TransferState(const ChainState& learned, const std::string& skill) {
+  std::string names;
+  for (const Link& l : learned.links) names += (names.empty() ? "" : ", ") + l.spec.source + "->" + l.spec.target;
+  if (names.empty()) names = "none";
+  size_t n = 0;
+  while (n < learned.links.size() && learned.links[n].spec.target != skill) ++n;
+  if (n == learned.links.size()) return Errorf("the chain has no {} skill (its links: {})", skill, names);
+  if (learned.links[n].learned_at_steps == 0)
+    return Errorf("the chain's {} skill is not learned yet (phase {}; links: {})", skill, PhaseName(learned.phase),
+                  names);
+  ChainState s;
+  s.phase = Phase::kTask;
+  s.source = skill;
+  s.links.assign(learned.links.begin(), learned.links.begin() + std::ptrdiff_t(n + 1));
+  s.task.started = true;
+  s.note = fmt::format("transfer: training the task over the {} skill", skill);
+  return s;
+}
+
 }  // namespace coins::chain

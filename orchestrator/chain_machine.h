@@ -77,6 +77,11 @@ class ChainMachine {
   ChainState s_;
 };
 
+// transfer (`coins transfer`): a chain that starts in the task phase over the links of `learned`
+// up to and including the learned link whose target is `skill` (its skills already trained);
+// everything else starts fresh. Errors name what the learned chain lacks.
+Result<ChainState> TransferState(const ChainState& learned, const std::string& skill);
+
 // the goal-reaching rate bookkeeping used by OnSkillCounts (exposed for tests): folds cumulative
 // counts into t; true when a window closed
 bool UpdateSuccess(SuccessTracker& t, uint64_t started, uint64_t reached, uint64_t env_steps, int64_t window_goals,

@@ -4,8 +4,6 @@
 
 namespace coins {
 
-namespace {
-
 msg::LinkSpec ToMessage(const chain::LinkSpec& l) {
   msg::LinkSpec m;
   m.source(l.source);
@@ -17,6 +15,8 @@ msg::LinkSpec ToMessage(const chain::LinkSpec& l) {
   m.interaction_rate(l.interaction_rate);
   return m;
 }
+
+namespace {
 
 msg::ChainLink ToChainLink(const chain::Link& l, bool training) {
   msg::ChainLink m;

@@ -15,6 +15,7 @@
 
 namespace coins {
 
+msg::LinkSpec ToMessage(const chain::LinkSpec& l);
 msg::ChainCommand ToMessage(const chain::Command& c, const std::string& run_id);
 chain::ScoresReport FromMessage(const msg::InteractionScores& m);
 chain::LearnerReport FromMessage(const msg::LearnerStatus& m);

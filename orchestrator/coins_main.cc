@@ -1,5 +1,6 @@
 // coins: the command-line front of the system.
 //   coins run       start a whole run on this machine
+//   coins transfer  a new task policy over a run's learned skills, on another env
 //   coins monitor   live table of a run, from any machine in the DDS domain
 //   coins discovery-server   a DDS discovery server of a cluster
 //   coins security init      the certificates and permissions of a secured run
@@ -22,6 +23,7 @@
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
 #include "orchestrator/security_command.h"
+#include "orchestrator/transfer.h"
 #include "replay/replay_cli.h"
 
 namespace coins {
@@ -65,6 +67,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int exit_code = 0;
   coins::AddRunCommand(app, &exit_code);
+  coins::AddTransferCommand(app, &exit_code);
   coins::AddMonitorCommand(app, &exit_code);
   coins::AddDiscoveryServerCommand(app, &exit_code);
   coins::AddSecurityCommand(app, &exit_code);

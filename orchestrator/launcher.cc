@@ -86,7 +86,8 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
                     c.dds.discovery_server);
     for (int i : servers) {
       ChildSpec s{fmt::format("discovery-{}", i),
-                  {bin + "/coins", "discovery-server", "--config", config_path, "--index", std::to_string(i)}};
+                  {bin + "/coins", "discovery-server", "--config", config_path, "--index", std::to_string(i)},
+                  {}};
       COINS_RETURN_IF_ERROR(sup.Start(s));
     }
   }
@@ -297,22 +298,26 @@ void PrintFinalCounts(const StatusView& v, const std::vector<int64_t>& actors) {
 
 }  // namespace
 
+void AddRunFlags(CLI::App* cmd, RunFlags* flags) {
+  cmd->add_option("--actors", flags->actors, "actor processes (run.actors)")->check(CLI::Range(1, 1024));
+  cmd->add_option("--shards", flags->shards, "replay shard processes (run.shards)")->check(CLI::Range(1, 256));
+  cmd->add_option("--dir", flags->dir, "run directory for config and logs (run.dir)");
+  cmd->add_option("--resume", flags->resume,
+                  "continue the stopped or crashed run in this directory from its newest complete checkpoint epoch "
+                  "(its config.yaml; flags may change only operational keys)");
+  cmd->add_option("--set", flags->overrides, "override a config value: section.key=value (repeatable)");
+  cmd->add_flag("--quiet", flags->quiet, "no progress lines");
+}
+
 void AddRunCommand(CLI::App& app, int* exit_code) {
   auto flags = std::make_shared<RunFlags>();
   CLI::App* run =
       app.add_subcommand("run", "Start a whole run on this machine: replay shards, learner, orchestrator, actors.");
   run->add_option("--config", flags->config, "YAML config file")->check(CLI::ExistingFile);
-  run->add_option("--actors", flags->actors, "actor processes (run.actors)")->check(CLI::Range(1, 1024));
-  run->add_option("--shards", flags->shards, "replay shard processes (run.shards)")->check(CLI::Range(1, 256));
   run->add_option("--env", flags->env, "environment (run.env), see `coins env list`");
   run->add_option("--steps", flags->steps, "total env steps, 0 = until Ctrl-C (run.steps)")
       ->check(cli::Integer(0, int64_t(1) << 50));
-  run->add_option("--dir", flags->dir, "run directory for config and logs (run.dir)");
-  run->add_option("--resume", flags->resume,
-                  "continue the stopped or crashed run in this directory from its newest complete checkpoint epoch "
-                  "(its config.yaml; flags may change only operational keys)");
-  run->add_option("--set", flags->overrides, "override a config value: section.key=value (repeatable)");
-  run->add_flag("--quiet", flags->quiet, "no progress lines");
+  AddRunFlags(run, flags.get());
   run->add_option("--role", flags->roles,
                   "this host's share of a cluster run: a comma list of discovery, replay, learner, orchestrator, "
                   "actors (default: everything; see orchestrator/run_roles.h)");
@@ -321,14 +326,15 @@ void AddRunCommand(CLI::App& app, int* exit_code) {
   run->callback([flags, exit_code] { *exit_code = RunLocal(*flags); });
 }
 
-int RunLocal(const RunFlags& flags) {
+int RunLocal(const RunFlags& flags, const RunSeed& seed) {
   SystemConfig c;
   RunPlan plan;
   std::string config_path;
   Status ready = PrepareRun(flags, c, &plan);
   if (ready.ok()) ready = PrepareDirectory(c, &plan, &config_path);
+  if (ready.ok() && seed && !plan.resuming) ready = seed(c);
   if (!ready.ok()) {
-    std::cerr << "coins run: " << ready.message() << "\n";
+    std::cerr << flags.command << ": " << ready.message() << "\n";
     return 2;
   }
   for (const auto& note : plan.notes) std::cout << note << "\n";

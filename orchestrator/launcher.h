@@ -7,10 +7,13 @@
 // `coins run --resume RUN_DIR` continues a stopped or crashed run (run_setup.h).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+
+#include "common/status.h"
 
 namespace coins {
 
@@ -26,11 +29,19 @@ struct RunFlags {
   bool quiet = false;  // no progress lines
   // this host's share of the run (orchestrator/run_roles.h); empty: everything
   std::string roles, actor_ids, shard_ids;
+  std::string command = "coins run";  // names the command in errors
 };
 
+// the flags every command that starts a run takes: --actors, --shards, --dir, --resume, --set, --quiet
+void AddRunFlags(CLI::App* cmd, RunFlags* flags);
 // adds the `run` subcommand to the coins CLI; its exit code goes to *exit_code
 void AddRunCommand(CLI::App& app, int* exit_code);
+struct SystemConfig;
+// what a fresh run writes into its directory before any process starts (`coins transfer`: the
+// chain and learner checkpoint it starts from); an error stops the run with exit code 2
+using RunSeed = std::function<Status(const SystemConfig&)>;
+
 // runs; returns the process exit code
-int RunLocal(const RunFlags& flags);
+int RunLocal(const RunFlags& flags, const RunSeed& seed = {});
 
 }  // namespace coins

@@ -243,6 +243,18 @@ Result<LevelSpec> ParseLevelSpec(const std::string& text) {
   return LevelSpecFromJson(j);
 }
 
+Status CheckLevelFits(const LevelSpec& spec, const envs::EnvSpec& trained, const envs::EnvSpec& target) {
+  std::vector<int> used = spec.obs_index;
+  for (int k = 0; k < spec.goal.features; ++k) used.push_back(spec.goal.offset + k);
+  for (int i : used) {
+    const std::string was = trained.feature_name(i), is = target.feature_name(i);
+    if (was != is)
+      return Errorf("{} observes {} in {}, but state feature {} is {} in {}", spec.name, was, trained.name, i, is,
+                    target.name);
+  }
+  return Status::Ok();
+}
+
 Result<GoalSpace> MakeGoalSpace(const envs::EnvSpec& spec, const std::string& factor, const std::vector<float>& mask) {
   const int f = spec.factor_index(factor);
   if (f < 0) return Errorf("env '{}' has no factor '{}'", spec.name, factor);

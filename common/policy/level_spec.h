@@ -102,6 +102,10 @@ nlohmann::json ToJson(const LevelSpec& spec);
 Result<LevelSpec> LevelSpecFromJson(const nlohmann::json& j);
 Result<LevelSpec> ParseLevelSpec(const std::string& text);
 
+// a level trained in env `trained` runs unchanged in `target`: every state feature it observes
+// (and its goal's target factor) is the same feature there; the error names the first that is not
+Status CheckLevelFits(const LevelSpec& spec, const envs::EnvSpec& trained, const envs::EnvSpec& target);
+
 // the goal space of `factor` with `mask`, resolved against spec (offset, bounds); goal values
 // and kind are filled by the caller
 Result<GoalSpace> MakeGoalSpace(const envs::EnvSpec& spec, const std::string& factor, const std::vector<float>& mask);

@@ -1,0 +1,252 @@
+// `coins transfer` across real processes: a learned chain's skills carried to a Breakout variant,
+// frozen while a new task policy trains over them; and the sources it refuses before starting.
+//
+// The source run is made here in one process (LocalRun: actors, replay, learner without DDS):
+// the paddle skill, a Paddle->Ball detector and the ball skill trained briefly, checkpointed, and
+// a chain.json whose links carry the values a real chain found. What the skills learned does not
+// matter to these tests (learning results are experiments); that the transfer carries them over
+// unchanged and trains only the task does.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "common/checkpoint.h"
+#include "common/files.h"
+#include "learner/checkpoint_dirs.h"
+#include "learner/local_run.h"
+#include "orchestrator/chain_store.h"
+#include "orchestrator/config_values.h"
+#include "orchestrator/system_config.h"
+#include "tests/process_harness.h"
+
+namespace coins {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::Bin;
+using testing::CommandResult;
+using testing::ReadJson;
+using testing::RunCommand;
+using testing::TempDir;
+using testing::TestDomain;
+
+constexpr const char* kConfig = R"(run:
+  env: breakout
+  actors: 1
+  shards: 1
+replay:
+  capacity: 100000
+  capacity_mb: 64
+learner:
+  eval_every_steps: 1000
+  eval_episodes: 2
+  eval_max_steps: 3000
+  checkpoint_keep: 20
+detector:
+  passive_steps: 50
+  passive_hard_steps: 50
+  active_steps: 50
+orchestrator:
+  task_learning_starts: 500
+  checkpoint_period_s: 2
+  checkpoint_timeout_s: 2
+)";
+
+msg::ChainCommand Command(uint64_t seq, const std::string& job, int acting, uint64_t step_base,
+                          const std::vector<msg::LinkSpec>& links) {
+  msg::ChainCommand c;
+  c.schema_version(msg::CHAIN_COMMAND_SCHEMA);
+  c.seq(seq);
+  c.job(job);
+  c.acting_level(acting);
+  c.step_base(step_base);
+  c.steps_per_update(2);
+  c.links(links);
+  return c;
+}
+
+chain::LinkSpec PaddleLink() { return {"Action", "Paddle", 4.35, {0, 1, 0, 0, 0}, "continuous", {7.5f, 75.5f}, 0.97}; }
+chain::LinkSpec BallLink() {
+  return {"Paddle", "Ball", 11639.6, {0, 0, 1, 1, 0}, "discrete", {-2, -1, -2, 1, -1, -1, -1, 1}, 0.0037};
+}
+msg::LinkSpec ToMsg(const chain::LinkSpec& l) {
+  msg::LinkSpec m;
+  m.source(l.source);
+  m.target(l.target);
+  m.score(l.score);
+  m.mask(l.mask);
+  m.goal_kind(l.goal_kind);
+  m.goal_set(l.goal_set);
+  m.interaction_rate(l.interaction_rate);
+  return m;
+}
+
+// trains until the learner has done `updates` more updates of its current job
+void Train(LocalRun& r, int updates) {
+  for (int i = 0; i < 200 && r.learner().status().updates() < uint64_t(updates); ++i) {
+    ASSERT_TRUE(r.StepActors(500).ok());
+    auto w = r.LearnerWork(200);
+    ASSERT_TRUE(w.ok()) << w.status().message();
+  }
+  ASSERT_GE(r.learner().status().updates(), uint64_t(updates));
+}
+
+// RUN/config.yaml, RUN/checkpoints/learner-epoch-1 (both skills, the Ball detector)
+void MakeSourceRun(const fs::path& run) {
+  fs::create_directories(run);
+  std::ofstream(run / "config.yaml") << kConfig;
+  SystemConfig c;
+  ConfigLoader loader = c.Loader();
+  ASSERT_TRUE(loader.LoadFile((run / "config.yaml").string()).ok());
+  ASSERT_TRUE(loader.Validate().ok());
+  LocalRunOptions o;
+  o.actors = 1;
+  o.shards = 1;
+  o.seed = 4;
+  o.actor.batch_rows = 256;
+  o.replay.capacity = 100000;
+  o.replay.capacity_mb = 64;
+  o.learner = c.learner;
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  const msg::LinkSpec paddle = ToMsg(PaddleLink()), ball = ToMsg(BallLink());
+  ASSERT_TRUE(r.Command(Command(1, "idle", 0, 4000, {})).ok());
+  ASSERT_TRUE(r.StepActors(100000).ok());
+  ASSERT_TRUE(r.Command(Command(2, "train-skill", 1, 5000, {paddle})).ok());
+  Train(r, 300);
+  msg::ChainCommand detect = Command(3, "detect", 1, r.env_steps(), {paddle});
+  detect.source("Paddle");
+  detect.targets({"Ball"});
+  detect.round(1);
+  ASSERT_TRUE(r.Command(detect).ok());
+  auto detected = r.LearnerWork(1);
+  ASSERT_TRUE(detected.ok()) << detected.status().message();
+  ASSERT_TRUE(r.Command(Command(4, "train-skill", 2, r.env_steps() + 2000, {paddle, ball})).ok());
+  Train(r, 200);
+  ASSERT_TRUE(r.learner().SaveCheckpoint(CheckpointDir(run.string(), 1), 1, CheckpointCommandId(1)).ok());
+  ASSERT_TRUE(fs::exists(fs::path(CheckpointDir(run.string(), 1)) / "detector-Ball.bin"));
+}
+
+// RUN/chain/chain.json: a finished chain with `links` (the last one learned when `learned`)
+void WriteChain(const fs::path& run, std::vector<chain::LinkSpec> links, bool learned) {
+  SystemConfig c;
+  ConfigLoader loader = c.Loader();
+  ASSERT_TRUE(loader.LoadFile((run / "config.yaml").string()).ok());
+  chain::ChainState s;
+  s.phase = learned ? chain::Phase::kDone : chain::Phase::kTrainingSkill;
+  s.seq = 9;
+  s.source = links.back().target;
+  for (size_t i = 0; i < links.size(); ++i) {
+    chain::Link l;
+    l.spec = links[i];
+    l.accepted_at_steps = 10000 * (i + 1);
+    l.learned_at_steps = learned || i + 1 < links.size() ? 10000 * (i + 2) : 0;
+    s.links.push_back(l);
+  }
+  ASSERT_TRUE(chain::ChainStore(run / "chain", ChainFingerprint(c.Values())).Save(s).ok());
+}
+
+// the source run, made once for every test of this file
+const fs::path& SourceRun() {
+  static const fs::path run = [] {
+    fs::path dir = TempDir("transfer-source") / "run";
+    MakeSourceRun(dir);
+    WriteChain(dir, {PaddleLink(), BallLink()}, true);
+    return dir;
+  }();
+  return run;
+}
+
+std::vector<uint8_t> Bytes(const fs::path& p) {
+  auto b = ReadFileBytes(p.string());
+  return b.ok() ? *b : std::vector<uint8_t>{};
+}
+
+bool OneLine(const CommandResult& r) { return std::count(r.output.begin(), r.output.end(), '\n') == 1; }
+
+// the task trains on breakout-single over the source's paddle and ball skills; both skills' weights,
+// targets and optimiser state are byte for byte the source's in every checkpoint the run wrote
+TEST(Transfer, TrainsATaskOnAVariantOverFrozenSkills) {
+  const fs::path src = SourceRun();
+  ASSERT_FALSE(HasFatalFailure());
+  const fs::path out = TempDir("transfer-single") / "run";
+  const std::string domain = std::to_string(TestDomain());
+  auto r =
+      RunCommand(Bin("coins") + " transfer " + src.string() + " --env breakout-single --steps 3000 --quiet --dir " +
+                     out.string() + " --set dds.domain=" + domain,
+                 std::chrono::seconds(200));
+  ASSERT_EQ(r.code, 0) << r.output;
+
+  const nlohmann::json t = ReadJson(out / "transfer.json");
+  ASSERT_TRUE(t.is_object()) << r.output;
+  EXPECT_EQ(t["env"], "breakout-single");
+  EXPECT_EQ(t["links"], nlohmann::json({"Action->Paddle", "Paddle->Ball"}));
+  ASSERT_EQ(t["skills"].size(), 2u);
+  EXPECT_EQ(t["skills"][1]["name"], "skill/Ball");
+
+  const nlohmann::json chain = testing::ChainState(out);
+  EXPECT_EQ(chain["phase"], "done") << chain.dump();
+  EXPECT_GE(chain["env_steps"].get<uint64_t>(), 3000u);
+
+  // every checkpoint of the transfer run: the skills as trained in the source, the task trained
+  const std::vector<int64_t> epochs = CheckpointEpochs(out.string());
+  ASSERT_GE(epochs.size(), 2u) << "epoch 0 (the seed) and at least one of the run";
+  const fs::path source_ckpt = CheckpointDir(src.string(), 1);
+  for (int64_t e : epochs) {
+    const fs::path ckpt = CheckpointDir(out.string(), uint64_t(e));
+    for (const char* file : {"trainer-1.bin", "trainer-2.bin", "detector-Ball.bin"}) {
+      const std::vector<uint8_t> a = Bytes(source_ckpt / file), b = Bytes(ckpt / file);
+      ASSERT_FALSE(a.empty()) << file;
+      EXPECT_TRUE(a == b) << file << " of epoch " << e << " differs from the source's";
+    }
+  }
+  const nlohmann::json last = ReadJson(fs::path(CheckpointDir(out.string(), uint64_t(epochs.back()))) / "state.json");
+  ASSERT_EQ(last["trainers"].size(), 3u) << last.dump();
+  EXPECT_EQ(last["trainers"][2]["name"], "task");
+  EXPECT_GT(last["total_updates"].get<uint64_t>(), 300u) << "the task trained: (3000 - 500) / 4 updates paced";
+  EXPECT_EQ(last["trainers"][0]["acting_checksum"], t["skills"][0]["acting_checksum"]);
+  EXPECT_EQ(last["trainers"][1]["acting_checksum"], t["skills"][1]["acting_checksum"]);
+
+  // `coins eval` runs the transferred task on the variant
+  auto e = RunCommand(Bin("coins") + " eval " + out.string() + " --episodes 3 --json");
+  ASSERT_EQ(e.code, 0) << e.output;
+  const auto j = nlohmann::json::parse(e.output, nullptr, false);
+  ASSERT_TRUE(j.is_object()) << e.output;
+  EXPECT_EQ(j["env"], "breakout-single");
+  EXPECT_EQ(j["policy"], "task");
+  EXPECT_EQ(j["episodes"], 3);
+}
+
+TEST(Transfer, RefusesWithOneLineSourcesThatDoNotFit) {
+  const fs::path src = SourceRun();
+  ASSERT_FALSE(HasFatalFailure());
+  const fs::path dir = TempDir("transfer-refused");
+  const std::string coins = Bin("coins") + " transfer ";
+  auto expect_refused = [&](const std::string& args, const std::string& what) {
+    auto r = RunCommand(coins + args + " --dir " + (dir / "out").string());
+    EXPECT_EQ(r.code, 2) << args << ": " << r.output;
+    EXPECT_TRUE(OneLine(r)) << r.output;
+    EXPECT_NE(r.output.find(what), std::string::npos) << args << ": " << r.output;
+    EXPECT_FALSE(fs::exists(dir / "out" / "logs" / "learner.log")) << "nothing may start: " << args;
+  };
+  expect_refused(src.string() + " --env breakout-nope", "unknown env 'breakout-nope'");
+  expect_refused(src.string() + " --env pushing", "env pushing has no factor Paddle");
+  expect_refused((dir / "missing").string() + " --env breakout-single", "not a run directory");
+  expect_refused(src.string() + " --env breakout-single --set learner.skill_hidden=[64,64]",
+                 "skill 2 (Paddle->Ball): the trained skill differs");
+
+  // a chain that found only the paddle, and one whose ball skill is still training
+  const fs::path paddle_only = dir / "paddle-only";
+  fs::copy(src, paddle_only, fs::copy_options::recursive);
+  WriteChain(paddle_only, {PaddleLink()}, true);
+  expect_refused(paddle_only.string() + " --env breakout-single",
+                 "the chain has no Ball skill (its links: Action->Paddle)");
+  WriteChain(paddle_only, {PaddleLink(), BallLink()}, false);
+  expect_refused(paddle_only.string() + " --env breakout-single", "the chain's Ball skill is not learned yet");
+}
+
+}  // namespace
+}  // namespace coins

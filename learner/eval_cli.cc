@@ -163,7 +163,7 @@ Status RunEval(const EvalFlags& f) {
   COINS_RETURN_IF_ERROR(recorder.Finish());
 
   const policy::LevelSpec& spec = core.trainer(level)->spec();
-  const policy::LevelSpec& skill = spec.is_task() ? core.trainer(level - 1)->spec() : spec;
+  const policy::LevelSpec& skill = spec.is_task() && level > 1 ? core.trainer(level - 1)->spec() : spec;
   PrintEval(f, *ckpt, (*env)->spec().name, level, spec, skill, *r);
   return Status::Ok();
 }

@@ -73,8 +73,8 @@ Status LearnerCore::BuildLevels(const msg::ChainCommand& cmd) {
     specs_.push_back(std::move(*s));
   }
   if (cmd.job() == "train-task") {
-    if (specs_.empty()) return Errorf("train-task without any link");
-    auto s = BuildTaskSpec(env_, specs_.back(), options_.task);
+    auto s = specs_.empty() ? BuildPrimitiveTaskSpec(env_, options_.task)
+                            : BuildTaskSpec(env_, specs_.back(), options_.task);
     if (!s.ok()) return s.status();
     specs_.push_back(std::move(*s));
   }
@@ -279,7 +279,7 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
   auto r = coins::Evaluate(**env, **models, train_level_, o);
   if (!r.ok()) return r.status().WithContext("evaluation");
   const policy::LevelSpec& spec = specs_[size_t(train_level_) - 1];
-  const policy::LevelSpec& skill = spec.is_task() ? specs_[size_t(train_level_) - 2] : spec;
+  const policy::LevelSpec& skill = spec.is_task() && train_level_ > 1 ? specs_[size_t(train_level_) - 2] : spec;
   status_.eval_env_steps(env_steps);
   status_.eval_episodes(uint32_t(spec.is_task() ? r->returns.size() : r->goals_ended));
   status_.eval_return_mean(r->return_mean);

@@ -49,6 +49,11 @@ std::optional<Phase> ParsePhase(std::string_view name) {
 ChainMachine::ChainMachine(envs::EnvSpec spec, OrchestratorOptions options) : spec_(std::move(spec)), o_(options) {
   s_.next_detect = uint64_t(o_.detect_every_steps);
   s_.note = "collecting random-action data for source Action";
+  if (o_.chain == "none") {
+    s_.phase = Phase::kTask;
+    s_.task.started = true;
+    s_.note = "no chain (orchestrator.chain none): training the task over primitive actions";
+  }
 }
 
 Result<ChainMachine> ChainMachine::Restore(envs::EnvSpec spec, OrchestratorOptions options, ChainState state) {
@@ -59,7 +64,8 @@ Result<ChainMachine> ChainMachine::Restore(envs::EnvSpec spec, OrchestratorOptio
     if (!known(l.spec.source) || !known(l.spec.target))
       return Errorf("chain state: link {}->{} names a factor env {} does not have", l.spec.source, l.spec.target,
                     spec.name);
-  bool needs_link = state.phase == Phase::kTrainingSkill || state.phase == Phase::kTask;
+  // the task acts through the top skill; only a run without a chain has it over primitive actions
+  bool needs_link = state.phase == Phase::kTrainingSkill || (state.phase == Phase::kTask && options.chain != "none");
   if (needs_link && state.links.empty()) return Errorf("chain state: phase {} without a link", PhaseName(state.phase));
   if (state.seq == 0) return Errorf("chain state: seq 0 (commands start at 1)");
   ChainMachine m(std::move(spec), options);
@@ -362,8 +368,8 @@ std::string ChainMachine::Describe() const {
     case Phase::kTask:
       return fmt::format(
           "training the task over {}: eval return {:.2f} +- {:.2f} (best {:.2f}, {} evals), {} of {} steps",
-          s_.links.back().spec.target, s_.eval.mean, s_.eval.sd, s_.task.best, s_.task.evals, Steps(in_phase),
-          Steps(uint64_t(o_.task_max_steps)));
+          s_.links.empty() ? std::string("primitive actions") : s_.links.back().spec.target, s_.eval.mean, s_.eval.sd,
+          s_.task.best, s_.task.evals, Steps(in_phase), Steps(uint64_t(o_.task_max_steps)));
     case Phase::kDone: return s_.note;
   }
   return s_.note;

@@ -450,5 +450,61 @@ TEST(ChainMachine, ResumeFromThePersistedStateAtEveryPhaseGivesTheSameNextComman
   EXPECT_EQ(phases, (std::set<std::string>{"collecting", "detecting", "training-skill", "task", "done"}));
 }
 
+// orchestrator.chain none: the task over primitive actions from the first step (the vanilla
+// baseline), judged by the same budgets; a persisted state of it restores only with that option
+TEST(ChainMachine, WithoutAChainTheTaskTrainsOverPrimitiveActionsFromTheStart) {
+  OrchestratorOptions o = SmallOptions();
+  o.chain = "none";
+  ChainMachine m(BreakoutLikeSpec(), o);
+  Command cmd = m.command();
+  EXPECT_EQ(cmd.phase, "task");
+  EXPECT_EQ(cmd.job, "train-task");
+  EXPECT_EQ(cmd.acting_level, 1);
+  EXPECT_TRUE(cmd.links.empty());
+  EXPECT_EQ(cmd.step_base, 500u);
+  EXPECT_NE(m.Describe().find("primitive actions"), std::string::npos) << m.Describe();
+  m.OnEnvSteps(1000);
+  m.OnLearner(Eval(m, 1000, -5.0));
+  EXPECT_EQ(m.state().task.evals, 1u);
+  EXPECT_TRUE(m.OnEnvSteps(100'000));
+  EXPECT_EQ(m.state().phase, Phase::kDone);
+  EXPECT_TRUE(ChainMachine::Restore(BreakoutLikeSpec(), o, m.state()).ok());
+  ChainState task = m.state();
+  task.phase = Phase::kTask;
+  EXPECT_TRUE(ChainMachine::Restore(BreakoutLikeSpec(), o, task).ok());
+  EXPECT_FALSE(ChainMachine::Restore(BreakoutLikeSpec(), SmallOptions(), task).ok());
+}
+
+TEST(ChainMachine, ATransferStartsInTheTaskOverTheLearnedLinksUpToItsSkill) {
+  Chain c;
+  ReachTask(c.m);
+  const ChainState learned = c.m.state();
+  ASSERT_GE(learned.links.size(), 1u);
+  const std::string top = learned.links.back().spec.target;
+  auto t = TransferState(learned, top);
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  EXPECT_EQ(t->phase, Phase::kTask);
+  EXPECT_EQ(t->links, learned.links);
+  EXPECT_EQ(t->seq, 1u);
+  EXPECT_EQ(t->env_steps, 0u);
+  EXPECT_TRUE(t->task.started);
+  EXPECT_EQ(t->task.evals, 0u);
+  auto m = ChainMachine::Restore(BreakoutLikeSpec(), SmallOptions(), *t);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_EQ(m->command().job, "train-task");
+  EXPECT_EQ(m->command().acting_level, int64_t(learned.links.size()) + 1);
+
+  auto none = TransferState(learned, "Nothing");
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.status().message().find("the chain has no Nothing skill (its links: Action->Paddle"),
+            std::string::npos)
+      << none.status().message();
+  ChainState training = learned;
+  training.links.back().learned_at_steps = 0;
+  auto unlearned = TransferState(training, top);
+  ASSERT_FALSE(unlearned.ok());
+  EXPECT_NE(unlearned.status().message().find("not learned yet"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace coins::chain

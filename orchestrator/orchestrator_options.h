@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "common/config/config.h"
 
@@ -15,6 +16,11 @@ namespace coins {
 struct OrchestratorOptions {
   // seconds between ChainStatus publications (and progress checks)
   double status_period_s = 1.0;
+
+  // coins: discover and learn the chain, then the task over its top skill (paper Algorithm 1);
+  // none: no chain, the task alone over primitive actions from the first step (the vanilla
+  // baseline, in the same harness, budgets and network family)
+  std::string chain = "coins";
 
   // detection: a link is accepted when the best eligible Sc_I exceeds eps_si (the paper's
   // eps_SI, 3 to 5 in log-likelihood; detector/options.h uses the same default)
@@ -62,6 +68,7 @@ struct OrchestratorOptions {
 inline void OrchestratorOptions::Visit(ConfigVisitor& v) {
   constexpr int64_t kMaxSteps = int64_t(1) << 50;
   v.Float("status_period_s", status_period_s, 0.05, 3600, "status period (s)");
+  v.String("chain", chain, {"coins", "none"}, "coins: learn the chain; none: the task over primitive actions alone");
   v.Float("eps_si", eps_si, -1e6, 1e6, "Sc_I threshold of a link (eps_SI)");
   v.Int("detect_every_steps", detect_every_steps, 1, kMaxSteps, "env steps per detect increment");
   v.Int("detect_budget_steps", detect_budget_steps, 1, kMaxSteps, "env steps a source may collect for detection");

@@ -248,5 +248,37 @@ TEST(Transfer, RefusesWithOneLineSourcesThatDoNotFit) {
   expect_refused(paddle_only.string() + " --env breakout-single", "the chain's Ball skill is not learned yet");
 }
 
+// the vanilla baseline in the same harness: `coins run` with orchestrator.chain none trains the task
+// alone over primitive actions (one level, the env's four actions) on the variant
+TEST(Baseline, WithoutAChainTheTaskTrainsOverPrimitiveActions) {
+  const fs::path dir = TempDir("baseline-vanilla");
+  std::ofstream(dir / "config.yaml") << kConfig;
+  const fs::path out = dir / "run";
+  auto r = RunCommand(Bin("coins") + " run --config " + (dir / "config.yaml").string() +
+                          " --env breakout-single --quiet --dir " + out.string() +
+                          " --set dds.domain=" + std::to_string(TestDomain()) +
+                          " --set orchestrator.chain=none --set run.steps=0 --set orchestrator.task_max_steps=3000 "
+                          "--set orchestrator.task_min_steps=3000",
+                      std::chrono::seconds(200));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json chain = testing::ChainState(out);
+  EXPECT_EQ(chain["phase"], "done") << chain.dump();
+  EXPECT_TRUE(chain["links"].empty()) << chain.dump();
+  const std::vector<int64_t> epochs = CheckpointEpochs(out.string());
+  ASSERT_FALSE(epochs.empty());
+  const nlohmann::json last = ReadJson(fs::path(CheckpointDir(out.string(), uint64_t(epochs.back()))) / "state.json");
+  ASSERT_EQ(last["trainers"].size(), 1u) << last.dump();
+  const nlohmann::json& task = last["trainers"][0];
+  EXPECT_EQ(task["name"], "task");
+  EXPECT_EQ(task["level"], 1);
+  EXPECT_EQ(task["spec"]["action_kind"], "primitive-discrete") << task["spec"].dump();
+  EXPECT_EQ(task["spec"]["num_actions"], 4);
+  EXPECT_EQ(task["spec"]["relative"].size(), 2u) << "Paddle-Ball y and x";
+  EXPECT_GT(last["total_updates"].get<uint64_t>(), 300u);
+  auto e = RunCommand(Bin("coins") + " eval " + out.string() + " --episodes 2 --json");
+  ASSERT_EQ(e.code, 0) << e.output;
+  EXPECT_NE(e.output.find("\"policy\":\"task\""), std::string::npos) << e.output;
+}
+
 }  // namespace
 }  // namespace coins

@@ -78,6 +78,25 @@ Status SetChildActions(const policy::LevelSpec& child, const LevelTrainOptions& 
   return Status::Ok();
 }
 
+void SetPrimitiveActions(const envs::EnvSpec& env, LevelSpec* s) {
+  const envs::ActionSpec& a = env.action;
+  s->action_kind = a.discrete ? ActionKind::kPrimitiveDiscrete : ActionKind::kPrimitiveContinuous;
+  s->num_actions = a.discrete ? a.n : 0;
+  s->action_dim = a.discrete ? 1 : a.dim;
+  s->action_low = a.low;
+  s->action_high = a.high;
+  s->algorithm = a.discrete ? "dqn" : "ddpg";
+  s->decision_period = 1;
+}
+
+// every factor but Action, Done and Reward
+void AddStateFactors(const envs::EnvSpec& env, LevelSpec* s) {
+  for (int f = 0; f < int(env.factors.size()); ++f) {
+    const std::string& n = env.factors[size_t(f)].name;
+    if (n != "Action" && n != "Done" && n != "Reward") AddFactor(env, f, s);
+  }
+}
+
 Status SetGoalSpace(const envs::EnvSpec& env, const msg::LinkSpec& link, const LevelTrainOptions& o, LevelSpec* s) {
   auto goal = policy::MakeGoalSpace(env, link.target(), link.mask());
   if (!goal.ok()) return goal.status();
@@ -124,14 +143,7 @@ Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& 
   AddFactor(env, ft, &s);
   AddRelative(env, fs, ft, &s);
   if (level == 1) {
-    const envs::ActionSpec& a = env.action;
-    s.action_kind = a.discrete ? ActionKind::kPrimitiveDiscrete : ActionKind::kPrimitiveContinuous;
-    s.num_actions = a.discrete ? a.n : 0;
-    s.action_dim = a.discrete ? 1 : a.dim;
-    s.action_low = a.low;
-    s.action_high = a.high;
-    s.algorithm = a.discrete ? "dqn" : "ddpg";
-    s.decision_period = 1;
+    SetPrimitiveActions(env, &s);
   } else {
     if (!child) return Errorf("level {} needs the spec of level {}", level, level - 1);
     COINS_RETURN_IF_ERROR(SetChildActions(*child, o, &s));
@@ -150,13 +162,32 @@ Result<LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const LevelSpec& top, 
   s.level = top.level + 1;
   SetNetwork(o, &s);
   s.decision_period = 0;
-  for (int f = 0; f < int(env.factors.size()); ++f) {
-    const std::string& n = env.factors[size_t(f)].name;
-    if (n != "Action" && n != "Done" && n != "Reward") AddFactor(env, f, &s);
-  }
+  AddStateFactors(env, &s);
   const int fs = top.source == "Action" ? -1 : env.factor_index(top.source);
   AddRelative(env, fs, env.factor_index(top.goal.factor), &s);
   COINS_RETURN_IF_ERROR(SetChildActions(top, o, &s));
+  COINS_RETURN_IF_ERROR(s.Validate());
+  return s;
+}
+
+Result<LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTrainOptions& o) {
+  LevelSpec s;
+  s.name = "task";
+  s.level = 1;
+  SetNetwork(o, &s);
+  AddStateFactors(env, &s);
+  // relative positions of every pair of single-instance factors (Paddle-Ball in Breakout)
+  std::vector<int> single;
+  for (int f = 0; f < int(env.factors.size()); ++f) {
+    const envs::FactorSpec& fs = env.factors[size_t(f)];
+    if (!fs.multi_instance && fs.name != "Action" && fs.name != "Done" && fs.name != "Reward") single.push_back(f);
+  }
+  for (size_t a = 0; a < single.size(); ++a)
+    for (size_t b = a + 1; b < single.size(); ++b) AddRelative(env, single[a], single[b], &s);
+  SetPrimitiveActions(env, &s);
+  if (s.algorithm != o.algorithm)
+    return Errorf("the task over primitive actions of {} needs learner.task_algorithm {} (it is {})", env.name,
+                  s.algorithm, o.algorithm);
   COINS_RETURN_IF_ERROR(s.Validate());
   return s;
 }

@@ -28,6 +28,11 @@ Result<policy::LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::Li
 Result<policy::LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const policy::LevelSpec& top,
                                         const LevelTrainOptions& options);
 
+// the task without a chain (orchestrator.chain none: the vanilla baseline): level 1 over primitive
+// actions, observing every factor but Action, Done and Reward and the relative positions of every
+// pair of single-instance factors (Paddle-Ball in Breakout, the baselines' added features)
+Result<policy::LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTrainOptions& options);
+
 // rare interactions: the link's skill ends goals at any detected interaction
 inline constexpr double kSparseInteractionRate = 0.1;
 inline bool SparseLink(const msg::LinkSpec& link) { return link.interaction_rate() < kSparseInteractionRate; }

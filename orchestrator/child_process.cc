@@ -6,8 +6,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <sstream>
 #include <thread>
 
 namespace coins {
@@ -92,5 +94,27 @@ std::string SelfDirectory() {
   auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
   return ec ? "." : exe.parent_path().string();
 }
+
+std::string FindInPath(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::stringstream dirs(path ? path : "/usr/bin:/bin");
+  std::string d;
+  while (std::getline(dirs, d, ':'))
+    if (!d.empty() && access((d + "/" + name).c_str(), X_OK) == 0) return d + "/" + name;
+  return "";
+}
+
+Result<int> RunBounded(const std::vector<std::string>& argv, const std::string& log, std::chrono::seconds timeout) {
+  auto child = ChildProcess::Spawn(std::filesystem::path(argv[0]).filename().string(), argv, log);
+  if (!child.ok()) return child.status();
+  if (!child->WaitFor(timeout)) {
+    child->Signal(SIGKILL);
+    child->WaitFor(std::chrono::seconds(5));
+    return Errorf("{} did not finish within {} s (killed); see {}", argv[0], timeout.count(), log);
+  }
+  return child->status();
+}
+
+bool Succeeded(const Result<int>& r) { return r.ok() && WIFEXITED(r.value()) && WEXITSTATUS(r.value()) == 0; }
 
 }  // namespace coins

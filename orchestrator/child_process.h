@@ -47,4 +47,11 @@ void StopAll(std::vector<ChildProcess>& children, std::chrono::milliseconds grac
 // directory holding this executable (where the other coins binaries are)
 std::string SelfDirectory();
 
+// the first executable `name` on PATH, "" when there is none
+std::string FindInPath(const std::string& name);
+// runs argv to its end within timeout (killed after it), output to log; the wait status or an error
+Result<int> RunBounded(const std::vector<std::string>& argv, const std::string& log, std::chrono::seconds timeout);
+// the process ran and exited with code 0
+bool Succeeded(const Result<int>& r);
+
 }  // namespace coins

@@ -1,6 +1,7 @@
 // coins: the command-line front of the system.
 //   coins run       start a whole run on this machine
 //   coins transfer  a new task policy over a run's learned skills, on another env
+//   coins experiment transfer   COInS transfer against vanilla on the Breakout variants, as tables
 //   coins monitor   live table of a run, from any machine in the DDS domain
 //   coins discovery-server   a DDS discovery server of a cluster
 //   coins security init      the certificates and permissions of a secured run
@@ -20,6 +21,7 @@
 #include "learner/eval_cli.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/discovery_command.h"
+#include "orchestrator/experiment_command.h"
 #include "orchestrator/launcher.h"
 #include "orchestrator/monitor.h"
 #include "orchestrator/security_command.h"
@@ -68,6 +70,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   coins::AddRunCommand(app, &exit_code);
   coins::AddTransferCommand(app, &exit_code);
+  coins::AddExperimentCommand(app, &exit_code);
   coins::AddMonitorCommand(app, &exit_code);
   coins::AddDiscoveryServerCommand(app, &exit_code);
   coins::AddSecurityCommand(app, &exit_code);

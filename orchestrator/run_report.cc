@@ -24,29 +24,6 @@ std::string Short(double x) {
   return fmt::format("{:.0f}", x);
 }
 
-std::string FindInPath(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::stringstream dirs(path ? path : "/usr/bin:/bin");
-  std::string d;
-  while (std::getline(dirs, d, ':'))
-    if (!d.empty() && access((d + "/" + name).c_str(), X_OK) == 0) return d + "/" + name;
-  return "";
-}
-
-// runs argv to its end within timeout (killed after it); the exit status or an error
-Result<int> RunBounded(const std::vector<std::string>& argv, const std::string& log, std::chrono::seconds timeout) {
-  auto child = ChildProcess::Spawn(fs::path(argv[0]).filename().string(), argv, log);
-  if (!child.ok()) return child.status();
-  if (!child->WaitFor(timeout)) {
-    child->Signal(SIGKILL);
-    child->WaitFor(std::chrono::seconds(5));
-    return Errorf("{} did not finish within {} s (killed); see {}", argv[0], timeout.count(), log);
-  }
-  return child->status();
-}
-
-bool Succeeded(const Result<int>& r) { return r.ok() && WIFEXITED(r.value()) && WEXITSTATUS(r.value()) == 0; }
-
 std::string Mask(const std::vector<float>& m) {
   std::string out;
   for (float x : m) out += (out.empty() ? "" : " ") + fmt::format("{:g}", x);

@@ -40,7 +40,7 @@ replay:
   capacity: 100000
   capacity_mb: 64
 learner:
-  eval_every_steps: 1000
+  eval_every_steps: 500
   eval_episodes: 2
   eval_max_steps: 3000
   checkpoint_keep: 20
@@ -278,6 +278,41 @@ TEST(Baseline, WithoutAChainTheTaskTrainsOverPrimitiveActions) {
   auto e = RunCommand(Bin("coins") + " eval " + out.string() + " --episodes 2 --json");
   ASSERT_EQ(e.code, 0) << e.output;
   EXPECT_NE(e.output.find("\"policy\":\"task\""), std::string::npos) << e.output;
+}
+
+// `coins experiment transfer`: one run per method on one variant, the table from their final
+// evaluations; a second call keeps the finished runs (an interrupted experiment continues)
+TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
+  const fs::path src = SourceRun();
+  ASSERT_FALSE(HasFatalFailure());
+  const fs::path out = TempDir("experiment-transfer") / "out";
+  const std::string cmd = Bin("coins") + " experiment transfer --chain " + src.string() +
+                          " --variants single --seeds 1 --steps 3000 --out " + out.string() +
+                          " --set dds.domain=" + std::to_string(TestDomain());
+  auto r = RunCommand(cmd, std::chrono::seconds(300));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json t = ReadJson(out / "transfer.json");
+  ASSERT_TRUE(t.is_object()) << r.output;
+  for (const char* m : {"coins", "vanilla"}) {
+    const nlohmann::json& cell = t["variants"]["single"][m];
+    ASSERT_EQ(cell["runs"].size(), 1u) << m;
+    const nlohmann::json summary = ReadJson(out / "single" / (std::string(m) + "-seed1") / "summary.json");
+    EXPECT_EQ(summary["phase"], "done") << m;
+    EXPECT_DOUBLE_EQ(cell["runs"][0].get<double>(), summary["eval"]["mean"].get<double>()) << m;
+  }
+  EXPECT_DOUBLE_EQ(t["variants"]["single"]["paper"]["coins"].get<double>(), -3.2);
+  EXPECT_TRUE(fs::exists(out / "transfer.md"));
+  EXPECT_TRUE(fs::exists(out / "single" / "coins-seed1" / "transfer.json")) << "the coins column is a transfer";
+  EXPECT_FALSE(fs::exists(out / "single" / "vanilla-seed1" / "transfer.json"));
+
+  auto again = RunCommand(cmd, std::chrono::seconds(60));
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("coins seed 1: final eval return"), std::string::npos) << again.output;
+  EXPECT_EQ(again.output.find("running"), std::string::npos) << "finished runs are kept: " << again.output;
+
+  auto bad = RunCommand(Bin("coins") + " experiment transfer --chain " + src.string() + " --variants tiny");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("unknown variant 'tiny'"), std::string::npos) << bad.output;
 }
 
 }  // namespace

@@ -1,0 +1,292 @@
+#include "orchestrator/experiment_command.h"
+
+#include <signal.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "common/cli_checks.h"
+#include "common/files.h"
+#include "common/process.h"
+#include "orchestrator/child_process.h"
+
+namespace coins {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// the paper's final returns (shared/reference/breakout.md, Table 3)
+const std::map<std::string, std::map<std::string, double>> kPaper = {
+    {"single", {{"coins", -3.2}, {"vanilla", -5.8}}}, {"hard", {{"coins", -4.2}, {"vanilla", -7.1}}},
+    {"big", {{"coins", 0.85}, {"vanilla", 0.74}}},    {"neg", {{"coins", 3.6}, {"vanilla", 2.9}}},
+    {"center", {{"coins", -12}, {"vanilla", -37}}},   {"prox", {{"coins", 0.5}, {"vanilla", 0.1}}}};
+
+struct Cell {
+  std::vector<double> finals;
+  std::vector<RunResult> runs;
+  double mean = 0, sd = 0;
+};
+
+fs::path RunDir(const ExperimentFlags& f, const std::string& variant, const std::string& method, int64_t seed) {
+  return fs::path(f.out) / variant / fmt::format("{}-seed{}", method, seed);
+}
+
+std::vector<std::string> RunArgv(const ExperimentFlags& f, const std::string& variant, const std::string& method,
+                                 int64_t seed) {
+  const std::string coins = SelfDirectory() + "/coins";
+  const std::string dir = RunDir(f, variant, method, seed).string();
+  std::vector<std::string> argv;
+  if (method == "coins") {
+    argv = {coins, "transfer", f.chain, "--env", "breakout-" + variant, "--steps", std::to_string(f.steps)};
+  } else {
+    argv = {coins,      "run",
+            "--config", (fs::path(f.chain) / "config.yaml").string(),
+            "--env",    "breakout-" + variant,
+            "--set",    "orchestrator.chain=none",
+            "--set",    "run.steps=0",
+            "--set",    fmt::format("orchestrator.task_max_steps={}", f.steps),
+            "--set",    fmt::format("orchestrator.task_min_steps={}", f.steps),
+            "--set",    "replay.snapshot_dir=" + dir + "/replay"};
+  }
+  for (const std::string& s :
+       {std::string("--dir"), dir, std::string("--quiet"), std::string("--set"), fmt::format("run.seed={}", seed)})
+    argv.push_back(s);
+  for (const std::string& s : f.overrides) {
+    argv.push_back("--set");
+    argv.push_back(s);
+  }
+  return argv;
+}
+
+// runs one child to its end; Ctrl-C stops it (SIGINT, its own clean stop) and the experiment
+Status RunChild(const std::vector<std::string>& argv, const std::string& log) {
+  auto child = ChildProcess::Spawn("run", argv, log);
+  if (!child.ok()) return child.status();
+  while (!child->WaitFor(std::chrono::milliseconds(200))) {
+    if (!StopRequested()) continue;
+    child->Signal(SIGINT);
+    if (!child->WaitFor(std::chrono::seconds(120))) child->Signal(SIGKILL), child->WaitFor(std::chrono::seconds(5));
+    return Errorf("interrupted; the finished runs are kept (run the same command again to continue)");
+  }
+  if (!child->succeeded()) return Errorf("{} {}; see {}", argv[1], child->Describe(), log);
+  return Status::Ok();
+}
+
+void MeanSd(Cell& c) {
+  if (c.finals.empty()) return;
+  double sum = 0, sq = 0;
+  for (double x : c.finals) sum += x;
+  c.mean = sum / double(c.finals.size());
+  for (double x : c.finals) sq += (x - c.mean) * (x - c.mean);
+  c.sd = c.finals.size() > 1 ? std::sqrt(sq / double(c.finals.size() - 1)) : 0.0;
+}
+
+// env steps of the first evaluation at or above `level`, per run (nullopt: never)
+json StepsToReach(const Cell& c, double level) {
+  json per_run = json::array();
+  for (const RunResult& r : c.runs) {
+    json at = nullptr;
+    for (const auto& [steps, ret] : r.curve)
+      if (ret >= level) {
+        at = steps;
+        break;
+      }
+    per_run.push_back(at);
+  }
+  return per_run;
+}
+
+std::string Reach(const json& per_run) {
+  std::vector<uint64_t> got;
+  for (const json& s : per_run)
+    if (!s.is_null()) got.push_back(s.get<uint64_t>());
+  if (got.empty()) return "never";
+  std::sort(got.begin(), got.end());
+  return fmt::format("{:.0f}k ({}/{} seeds)", double(got[got.size() / 2]) / 1e3, got.size(), per_run.size());
+}
+
+Status WriteCurves(const ExperimentFlags& f, const std::string& variant) {
+  const std::string gnuplot = FindInPath("gnuplot");
+  if (gnuplot.empty()) return Errorf("gnuplot not found (Debian package gnuplot-nox): no curves");
+  const std::string png = (fs::path(f.out) / fmt::format("curves-{}.png", variant)).string();
+  std::string script = fmt::format(
+      "set datafile separator ','\nset terminal pngcairo size 900,540\nset grid\nset xlabel 'env steps'\n"
+      "set ylabel 'eval return'\nset key bottom right\nset output '{}'\nset title 'breakout-{}: eval return'\nplot ",
+      png, variant);
+  bool first = true;
+  for (size_t m = 0; m < f.methods.size(); ++m)
+    for (int64_t s = 1; s <= f.seeds; ++s) {
+      const fs::path csv = RunDir(f, variant, f.methods[m], s) / "eval.csv";
+      if (!fs::exists(csv)) continue;
+      script += fmt::format("{}'{}' every ::1 using 1:2 with lines lw 2 lc {} title '{} seed {}'", first ? "" : ", ",
+                            csv.string(), m + 1, f.methods[m], s);
+      first = false;
+    }
+  if (first) return Status::Ok();
+  const std::string gp = (fs::path(f.out) / fmt::format("curves-{}.gp", variant)).string();
+  std::ofstream(gp) << script << "\n";
+  auto r = RunBounded({gnuplot, gp}, (fs::path(f.out) / "gnuplot.log").string(), std::chrono::seconds(30));
+  if (!Succeeded(r)) return Errorf("gnuplot failed on {}; see {}/gnuplot.log", gp, f.out);
+  return Status::Ok();
+}
+
+Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::map<std::string, Cell>>& cells) {
+  json j = {{"chain", fs::absolute(f.chain).lexically_normal().string()},
+            {"steps", f.steps},
+            {"seeds", f.seeds},
+            {"methods", f.methods},
+            {"final", "the last greedy evaluation of each run (learner.eval_episodes episodes)"}};
+  std::string md = fmt::format(
+      "# Transfer to the Breakout variants\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: the "
+      "last greedy evaluation of each run; mean +- sd over seeds.\n\n| variant |",
+      f.chain, f.steps, f.seeds);
+  for (const auto& m : f.methods) md += fmt::format(" {} |", m);
+  for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
+  for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final |", m);
+  md += "\n|---|";
+  for (size_t i = 0; i < 3 * f.methods.size(); ++i) md += "---|";
+  md += "\n";
+  for (const auto& v : f.variants) {
+    const auto& row = cells.at(v);
+    const bool has_vanilla = row.count("vanilla") && !row.at("vanilla").finals.empty();
+    const double level = has_vanilla ? row.at("vanilla").mean : NAN;
+    md += "| " + v + " |";
+    for (const auto& m : f.methods) {
+      const Cell& c = row.at(m);
+      json& out = j["variants"][v][m];
+      out = {{"mean", c.mean}, {"sd", c.sd}, {"runs", c.finals}};
+      md += c.finals.empty() ? " - |" : fmt::format(" {:.2f} +- {:.2f} |", c.mean, c.sd);
+      if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
+    }
+    for (const auto& m : f.methods) {
+      const auto p = kPaper.count(v) && kPaper.at(v).count(m) ? kPaper.at(v).at(m) : NAN;
+      j["variants"][v]["paper"][m] = std::isnan(p) ? json(nullptr) : json(p);
+      md += std::isnan(p) ? " - |" : fmt::format(" {} |", p);
+    }
+    for (const auto& m : f.methods)
+      md += has_vanilla ? " " + Reach(j["variants"][v][m]["steps_to_vanilla_final"]) + " |" : " - |";
+    md += "\n";
+  }
+  COINS_RETURN_IF_ERROR(WriteFileAtomic((fs::path(f.out) / "transfer.json").string(), j.dump(1) + "\n"));
+  return WriteFileAtomic((fs::path(f.out) / "transfer.md").string(), md);
+}
+
+Status Check(ExperimentFlags& f) {
+  if (!fs::exists(fs::path(f.chain) / "config.yaml")) return Errorf("--chain {}: not a run directory", f.chain);
+  for (const auto& v : f.variants)
+    if (!kPaper.count(v))
+      return Errorf("--variants: unknown variant '{}' (known: single, hard, big, neg, center, prox)", v);
+  for (const auto& m : f.methods)
+    if (m != "coins" && m != "vanilla") return Errorf("--methods: unknown method '{}' (known: coins, vanilla)", m);
+  if (f.out.empty()) f.out = (fs::path(f.chain) / "experiment-transfer").string();
+  std::error_code ec;
+  fs::create_directories(f.out, ec);
+  if (ec) return Errorf("--out {}: {}", f.out, ec.message());
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<RunResult> ReadRunResult(const std::string& dir) {
+  RunResult r;
+  const json summary = [&] {
+    std::ifstream in(fs::path(dir) / "summary.json");
+    return in ? json::parse(in, nullptr, false) : json();
+  }();
+  if (!summary.is_object()) return r;
+  r.done = summary.value("phase", "") == "done";
+  r.wall_s = summary.value("wall_s", 0.0);
+  if (summary.contains("eval") && summary["eval"].is_object()) r.final_return = summary["eval"].value("mean", 0.0);
+  std::ifstream csv(fs::path(dir) / "eval.csv");
+  std::string line;
+  std::getline(csv, line);  // header
+  while (std::getline(csv, line)) {
+    std::stringstream ss(line);
+    std::string steps, mean;
+    if (!std::getline(ss, steps, ',') || !std::getline(ss, mean, ',')) continue;
+    r.curve.emplace_back(std::stoull(steps), std::stod(mean));
+  }
+  if (r.done && r.curve.empty())
+    return Errorf("{}: finished without an evaluation (a budget shorter than learner.eval_every_steps?)", dir);
+  return r;
+}
+
+Status RunTransferExperiment(const ExperimentFlags& flags) {
+  ExperimentFlags f = flags;
+  COINS_RETURN_IF_ERROR(Check(f));
+  InstallStopSignals();
+  std::map<std::string, std::map<std::string, Cell>> cells;
+  const int64_t total = int64_t(f.variants.size() * f.methods.size()) * f.seeds;
+  int64_t n = 0;
+  for (const auto& v : f.variants)
+    for (const auto& m : f.methods)
+      for (int64_t s = 1; s <= f.seeds; ++s) {
+        const fs::path dir = RunDir(f, v, m, s);
+        auto result = ReadRunResult(dir.string());
+        if (!result.ok()) return result.status();
+        std::string what = "kept";
+        if (!result->done) {
+          std::cout << fmt::format("[{}/{}] breakout-{} {} seed {}: running ({} env steps) in {}", ++n, total, v, m, s,
+                                   f.steps, dir.string())
+                    << std::endl;
+          fs::create_directories(dir.parent_path());
+          COINS_RETURN_IF_ERROR(RunChild(RunArgv(f, v, m, s), dir.string() + ".log"));
+          result = ReadRunResult(dir.string());
+          if (!result.ok()) return result.status();
+          if (!result->done)
+            return Errorf("{}: the run ended without finishing its task (see {}.log)", dir.string(), dir.string());
+          what = fmt::format("{:.0f} s", result->wall_s);
+        } else {
+          ++n;
+        }
+        std::cout << fmt::format("[{}/{}] breakout-{} {} seed {}: final eval return {:.2f} ({})", n, total, v, m, s,
+                                 result->final_return, what)
+                  << std::endl;
+        Cell& c = cells[v][m];
+        c.finals.push_back(result->final_return);
+        c.runs.push_back(*result);
+      }
+  for (auto& [v, row] : cells)
+    for (auto& [m, c] : row) MeanSd(c);
+  COINS_RETURN_IF_ERROR(WriteTables(f, cells));
+  for (const auto& v : f.variants)
+    if (Status s = WriteCurves(f, v); !s.ok()) std::cerr << "coins experiment: " << s.message() << "\n";
+  if (auto md = ReadFileText((fs::path(f.out) / "transfer.md").string()); md.ok()) std::cout << *md << "\n";
+  std::cout << "coins experiment: tables in " << f.out << "/transfer.md and transfer.json, curves in " << f.out
+            << "/curves-*.png\n";
+  return Status::Ok();
+}
+
+void AddExperimentCommand(CLI::App& app, int* exit_code) {
+  CLI::App* exp = app.add_subcommand("experiment", "Run a whole experiment of several runs and write its tables.");
+  exp->require_subcommand(1);
+  auto f = std::make_shared<ExperimentFlags>();
+  CLI::App* t = exp->add_subcommand(
+      "transfer", "COInS transfer against vanilla DQN on the Breakout variants (the paper's transfer table).");
+  t->add_option("--chain", f->chain, "run directory of a learned Breakout chain (with its Ball skill)")->required();
+  t->add_option("--variants", f->variants, "variants (default: all six)")->delimiter(',');
+  t->add_option("--methods", f->methods, "methods: coins, vanilla (default: both)")->delimiter(',');
+  t->add_option("--seeds", f->seeds, "seeds per variant and method")->check(CLI::Range(1, 100));
+  t->add_option("--steps", f->steps, "env steps of each run")->check(cli::Integer(1000, int64_t(1) << 40));
+  t->add_option("--out", f->out, "output directory (default: CHAIN/experiment-transfer)");
+  t->add_option("--set", f->overrides, "a config override for every run (repeatable)");
+  t->callback([f, exit_code] {
+    if (Status s = RunTransferExperiment(*f); !s.ok()) {
+      std::cerr << "coins experiment transfer: " << s.message() << "\n";
+      *exit_code = 2;
+    }
+  });
+}
+
+}  // namespace coins

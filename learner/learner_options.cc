@@ -31,6 +31,8 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.FloatList(p + "child_offsets", child_offsets, "continuous 1-d child goals as discrete offsets (dqn)");
   v.Float(p + "child_ratio", child_ratio, 1e-6, 10, "child goal offsets scale, fraction of the range");
   v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
+  if (p == "task_")
+    v.FloatList(p + "pair_hidden", pair_hidden, "per-block layers of a pair network over the blocks ([]: the Mlp)");
 }
 
 Status LevelTrainOptions::Validate(const std::string& p) const {
@@ -41,6 +43,8 @@ Status LevelTrainOptions::Validate(const std::string& p) const {
   for (double o : child_offsets)
     if (!(o >= -1 && o <= 1)) return Errorf("{}child_offsets: {} is not in [-1, 1]", p, o);
   if (child_offsets.size() == 1) return Errorf("{}child_offsets needs at least 2 entries (or none)", p);
+  for (double h : pair_hidden)
+    if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}pair_hidden: {} is not a layer size", p, h);
   return Status::Ok();
 }
 

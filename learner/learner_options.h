@@ -40,6 +40,9 @@ struct LevelTrainOptions {
   std::vector<double> child_offsets;  // continuous 1-d child goals as discrete offsets (dqn); empty: ddpg
   double child_ratio = 0.15;          // child goal = child value + offset * ratio * range
   int64_t publish_every = 50;         // updates between weight publications
+  // the task only: a pair network over the blocks (a multi-instance factor) with these
+  // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp
+  std::vector<double> pair_hidden;
 
   void Visit(ConfigVisitor& v, const std::string& p);
   Status Validate(const std::string& p) const;

@@ -111,6 +111,10 @@ Status LevelSpec::Validate() const {
   if (hidden.empty()) return bad("hidden needs at least one layer");
   for (int h : hidden)
     if (h <= 0) return bad("hidden sizes must be positive");
+  if (pair.enabled() && algorithm != "dqn") return bad("a pair network needs algorithm dqn");
+  if (pair.enabled())
+    if (Status st = nn::QNetOptions{obs_dim(), hidden, 1, activation, activation, pair}.Validate(); !st.ok())
+      return bad(st.message());
   if (atoms > 1 && !(v_max > v_min)) return bad("v_max must exceed v_min");
   return Status::Ok();
 }
@@ -132,35 +136,42 @@ nlohmann::json ToJson(const LevelSpec& s) {
                {"norm", s.goal.norm == GoalNorm::kL1 ? "l1" : "linf"}};
   json rel = json::array();
   for (const auto& [a, b] : s.relative) rel.push_back({a, b});
-  return {{"name", s.name},
-          {"level", s.level},
-          {"source", s.source},
-          {"goal", goal},
-          {"obs_index", s.obs_index},
-          {"obs_low", s.obs_low},
-          {"obs_high", s.obs_high},
-          {"relative", rel},
-          {"relative_scale", s.relative_scale},
-          {"action_kind", ActionKindName(s.action_kind)},
-          {"num_actions", s.num_actions},
-          {"action_dim", s.action_dim},
-          {"action_low", s.action_low},
-          {"action_high", s.action_high},
-          {"child_ratio", s.child_ratio},
-          {"child_offsets", s.child_offsets},
-          {"timeout", s.timeout},
-          {"decision_period", s.decision_period},
-          {"terminate_on_interaction", s.terminate_on_interaction},
-          {"require_interaction", s.require_interaction},
-          {"detector", s.detector},
-          {"algorithm", s.algorithm},
-          {"hidden", s.hidden},
-          {"activation", nn::ActivationName(s.activation)},
-          {"dueling", s.dueling},
-          {"atoms", s.atoms},
-          {"v_min", s.v_min},
-          {"v_max", s.v_max},
-          {"explore", s.explore}};
+  json j = {{"name", s.name},
+            {"level", s.level},
+            {"source", s.source},
+            {"goal", goal},
+            {"obs_index", s.obs_index},
+            {"obs_low", s.obs_low},
+            {"obs_high", s.obs_high},
+            {"relative", rel},
+            {"relative_scale", s.relative_scale},
+            {"action_kind", ActionKindName(s.action_kind)},
+            {"num_actions", s.num_actions},
+            {"action_dim", s.action_dim},
+            {"action_low", s.action_low},
+            {"action_high", s.action_high},
+            {"child_ratio", s.child_ratio},
+            {"child_offsets", s.child_offsets},
+            {"timeout", s.timeout},
+            {"decision_period", s.decision_period},
+            {"terminate_on_interaction", s.terminate_on_interaction},
+            {"require_interaction", s.require_interaction},
+            {"detector", s.detector},
+            {"algorithm", s.algorithm},
+            {"hidden", s.hidden},
+            {"activation", nn::ActivationName(s.activation)},
+            {"dueling", s.dueling},
+            {"atoms", s.atoms},
+            {"v_min", s.v_min},
+            {"v_max", s.v_max},
+            {"explore", s.explore}};
+  if (s.pair.enabled())
+    j["pair"] = {{"factor", s.pair_factor},
+                 {"offset", s.pair.offset},
+                 {"instances", s.pair.instances},
+                 {"instance_dim", s.pair.instance_dim},
+                 {"presence", s.pair.presence}};
+  return j;
 }
 
 namespace {
@@ -208,6 +219,14 @@ LevelSpec ReadSpec(const nlohmann::json& j) {
   s.v_min = j.at("v_min").get<float>();
   s.v_max = j.at("v_max").get<float>();
   s.explore = j.at("explore").get<float>();
+  if (j.contains("pair")) {
+    const auto& p = j.at("pair");
+    s.pair_factor = p.at("factor").get<std::string>();
+    s.pair.offset = p.at("offset").get<int>();
+    s.pair.instances = p.at("instances").get<int>();
+    s.pair.instance_dim = p.at("instance_dim").get<int>();
+    s.pair.presence = p.at("presence").get<int>();
+  }
   return s;
 }
 

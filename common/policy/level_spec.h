@@ -22,6 +22,7 @@
 #include "common/env_spec.h"
 #include "common/hindsight.h"
 #include "common/nn/activation.h"
+#include "common/nn/qnet.h"
 #include "common/status.h"
 
 namespace coins::policy {
@@ -82,8 +83,12 @@ struct LevelSpec {
   bool require_interaction = false;       // success needs the link interaction
   std::string detector;                   // weights name of the link's detector ("" when none is needed)
   // network
-  std::string algorithm = "dqn";  // dqn | ddpg
-  std::vector<int> hidden = {128, 128};
+  std::string algorithm = "dqn";         // dqn | ddpg
+  std::vector<int> hidden = {128, 128};  // with a pair network: its per-instance point layers
+  // a pair network (common/nn/qnet.h) over the instances of pair_factor, which sit at
+  // observation rows pair.offset ... (not enabled: an Mlp over the whole observation)
+  std::string pair_factor;
+  nn::InstanceSplit pair;
   nn::Activation activation = nn::Activation::kRelu;
   bool dueling = true;  // dqn
   int atoms = 51;       // dqn: distributional when > 1

@@ -37,13 +37,14 @@ void BuildObservations(const LevelSpec& s, const Eigen::Ref<const Eigen::MatrixX
     BuildObservation(s, features.col(b).data(), s.goal.dim() ? goals.col(b).data() : nullptr, obs->col(b).data());
 }
 
-nn::MlpOptions ActingNetworkOptions(const LevelSpec& spec) {
-  nn::MlpOptions o;
-  o.sizes = {spec.obs_dim()};
-  o.sizes.insert(o.sizes.end(), spec.hidden.begin(), spec.hidden.end());
-  o.sizes.push_back(spec.network_outputs());
-  o.hidden = spec.activation;
-  o.output = spec.algorithm == "ddpg" ? nn::Activation::kTanh : nn::Activation::kIdentity;
+nn::QNetOptions ActingNetworkOptions(const LevelSpec& spec) {
+  nn::QNetOptions o;
+  o.obs_dim = spec.obs_dim();
+  o.hidden = spec.hidden;
+  o.outputs = spec.network_outputs();
+  o.hidden_act = spec.activation;
+  o.output_act = spec.algorithm == "ddpg" ? nn::Activation::kTanh : nn::Activation::kIdentity;
+  o.split = spec.pair;
   return o;
 }
 
@@ -51,7 +52,7 @@ Result<PolicyNet> PolicyNet::Create(const LevelSpec& spec, uint64_t seed) {
   COINS_RETURN_IF_ERROR(spec.Validate());
   PolicyNet p;
   p.spec_ = spec;
-  p.net_ = nn::Mlp(ActingNetworkOptions(spec), seed);
+  p.net_ = nn::QNet(ActingNetworkOptions(spec), seed);
   if (spec.algorithm == "dqn" && spec.atoms > 1)
     p.support_ = Eigen::VectorXf::LinSpaced(spec.atoms, spec.v_min, spec.v_max);
   return p;

@@ -2,9 +2,9 @@
 //
 // GatherFeatures/BuildObservation turn a full state (or the obs_index features a replay sample
 // carries) into the level's observation (common/policy/level_spec.h). PolicyNet is the acting
-// network of a level: for dqn the online Q-network (Mlp, dueling and distributional heads as
+// network of a level: for dqn the online Q-network (QNet: an Mlp or a pair network; dueling and distributional heads as
 // learner/rl/dqn.h builds them, so their weight blobs are interchangeable), for ddpg the
-// deterministic actor (Mlp with tanh outputs, as learner/rl/ddpg.h). After the first call Act
+// deterministic actor (an Mlp with tanh outputs, as learner/rl/ddpg.h). After the first call Act
 // allocates nothing. A PolicyNet is used by one thread at a time.
 #pragma once
 
@@ -15,7 +15,7 @@
 
 #include <Eigen/Dense>
 
-#include "common/nn/mlp.h"
+#include "common/nn/qnet.h"
 #include "common/policy/level_spec.h"
 
 namespace coins::policy {
@@ -29,8 +29,8 @@ void BuildObservation(const LevelSpec& spec, const float* features, const float*
 void BuildObservations(const LevelSpec& spec, const Eigen::Ref<const Eigen::MatrixXf>& features,
                        const Eigen::Ref<const Eigen::MatrixXf>& goals, Eigen::MatrixXf* obs);
 
-// the Mlp sizes and activations of a level's acting network
-nn::MlpOptions ActingNetworkOptions(const LevelSpec& spec);
+// the shape of a level's acting network (learner/rl builds the same for its online network)
+nn::QNetOptions ActingNetworkOptions(const LevelSpec& spec);
 
 class PolicyNet {
  public:
@@ -54,7 +54,7 @@ class PolicyNet {
   void QValues(const float* obs);
 
   LevelSpec spec_;
-  nn::Mlp net_;
+  nn::QNet net_;
   Eigen::VectorXf support_;
   Eigen::MatrixXf head_, q_block_;
   Eigen::VectorXf q_;

@@ -16,6 +16,8 @@ Status DqnOptions::Validate() const {
     if (h <= 0) return Errorf("dqn: hidden size {} must be > 0", h);
   if (distributional && atoms < 2) return Errorf("dqn: atoms {} must be >= 2", atoms);
   if (distributional && !(v_max > v_min)) return Errorf("dqn: v_max {} must exceed v_min {}", v_max, v_min);
+  const nn::QNetOptions net{obs_dim, hidden, 2, activation, nn::Activation::kIdentity, split};
+  COINS_RETURN_IF_ERROR(net.Validate().WithContext("dqn"));
   if (!(lr > 0.0f)) return Errorf("dqn: lr {} must be > 0", lr);
   if (tau < 0.0f || tau > 1.0f) return Errorf("dqn: tau {} not in [0, 1]", tau);
   if (tau == 0.0f && target_update_period <= 0)
@@ -26,10 +28,10 @@ Status DqnOptions::Validate() const {
 
 Dqn::Dqn(DqnOptions options) : options_(std::move(options)) {
   assert(options_.Validate().ok());
-  const std::vector<int> sizes =
-      nn::LayerSizes(options_.obs_dim, options_.hidden,
-                     (options_.dueling ? 1 + options_.num_actions : options_.num_actions) * atoms());
-  online_ = nn::Mlp({sizes, options_.activation, nn::Activation::kIdentity}, options_.seed);
+  const int outputs = (options_.dueling ? 1 + options_.num_actions : options_.num_actions) * atoms();
+  online_ = nn::QNet(
+      {options_.obs_dim, options_.hidden, outputs, options_.activation, nn::Activation::kIdentity, options_.split},
+      options_.seed);
   target_ = online_;
   adam_ = nn::Adam({.lr = options_.lr, .clip_norm = options_.grad_clip}, online_.params().size());
   support_ = Eigen::VectorXf::LinSpaced(atoms(), options_.v_min, options_.v_max);

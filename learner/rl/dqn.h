@@ -3,7 +3,8 @@
 // replay. Discrete actions; observations are obs_dim vectors (goal-conditioned: with the goal
 // appended by the source).
 //
-// Network: an Mlp obs_dim -> hidden... -> (dueling ? 1 + A : A) * K outputs, K = atoms when
+// Network: a QNet (an Mlp, or a pair network over one factor's instances) obs_dim -> hidden... ->
+// (dueling ? 1 + A : A) * K outputs, K = atoms when
 // distributional else 1. Loss: cross-entropy against the projected target distribution
 // (distributional) or Huber on the TD error, weighted by Batch::weights. The target network is
 // copied every target_update_period updates, or Polyak-averaged with tau when tau > 0.
@@ -17,7 +18,7 @@
 #include <Eigen/Dense>
 
 #include "common/nn/adam.h"
-#include "common/nn/mlp.h"
+#include "common/nn/qnet.h"
 #include "learner/rl/algorithm_state.h"
 #include "learner/rl/batch.h"
 
@@ -27,6 +28,7 @@ struct DqnOptions {
   int obs_dim = 0;
   int num_actions = 4;                   // the paddle's 4 primitive actions
   std::vector<int> hidden = {128, 128};  // paddle skill MLP 128-128
+  nn::InstanceSplit split;               // enabled: a pair network over these instances (common/nn/qnet.h)
   nn::Activation activation = nn::Activation::kRelu;
   bool double_q = true;
   bool dueling = true;
@@ -69,8 +71,8 @@ class Dqn {
   // samples options.batch_size from source, updates, and reports priorities back
   Result<DqnStats> Train(BatchSource* source);
 
-  nn::Mlp& online() { return online_; }
-  const nn::Mlp& online() const { return online_; }
+  nn::QNet& online() { return online_; }
+  const nn::QNet& online() const { return online_; }
   int64_t updates() const { return updates_; }
   const DqnOptions& options() const { return options_; }
   // the whole training state (online, target, Adam, update count) for checkpoints
@@ -84,7 +86,7 @@ class Dqn {
   void ToQ(const Eigen::MatrixXf& head, Eigen::MatrixXf* q) const;
 
   DqnOptions options_;
-  nn::Mlp online_, target_;
+  nn::QNet online_, target_;
   nn::Adam adam_;
   Eigen::VectorXf support_;
   int64_t updates_ = 0;

@@ -89,11 +89,20 @@ void SetPrimitiveActions(const envs::EnvSpec& env, LevelSpec* s) {
   s->decision_period = 1;
 }
 
-// every factor but Action, Done and Reward
-void AddStateFactors(const envs::EnvSpec& env, LevelSpec* s) {
+// every factor but Action, Done and Reward; with pair_hidden, a pair network over the first
+// multi-instance factor (its instances are contiguous in the observation; presence: attr)
+void AddStateFactors(const envs::EnvSpec& env, const LevelTrainOptions& o, LevelSpec* s) {
   for (int f = 0; f < int(env.factors.size()); ++f) {
-    const std::string& n = env.factors[size_t(f)].name;
-    if (n != "Action" && n != "Done" && n != "Reward") AddFactor(env, f, s);
+    const envs::FactorSpec& fs = env.factors[size_t(f)];
+    if (fs.name == "Action" || fs.name == "Done" || fs.name == "Reward") continue;
+    if (fs.multi_instance && !o.pair_hidden.empty() && !s->pair.enabled()) {
+      const auto attr = std::find(fs.feature_names.begin(), fs.feature_names.end(), "attr");
+      s->pair_factor = fs.name;
+      s->pair = {int(s->obs_index.size()), fs.instances, fs.features,
+                 attr == fs.feature_names.end() ? 0 : int(attr - fs.feature_names.begin())};
+      s->hidden.assign(o.pair_hidden.begin(), o.pair_hidden.end());
+    }
+    AddFactor(env, f, s);
   }
 }
 
@@ -162,7 +171,7 @@ Result<LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const LevelSpec& top, 
   s.level = top.level + 1;
   SetNetwork(o, &s);
   s.decision_period = 0;
-  AddStateFactors(env, &s);
+  AddStateFactors(env, o, &s);
   const int fs = top.source == "Action" ? -1 : env.factor_index(top.source);
   AddRelative(env, fs, env.factor_index(top.goal.factor), &s);
   COINS_RETURN_IF_ERROR(SetChildActions(top, o, &s));
@@ -175,7 +184,7 @@ Result<LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTr
   s.name = "task";
   s.level = 1;
   SetNetwork(o, &s);
-  AddStateFactors(env, &s);
+  AddStateFactors(env, o, &s);
   // relative positions of every pair of single-instance factors (Paddle-Ball in Breakout)
   std::vector<int> single;
   for (int f = 0; f < int(env.factors.size()); ++f) {

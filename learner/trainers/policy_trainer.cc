@@ -54,6 +54,7 @@ Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::Level
     d.obs_dim = spec.obs_dim();
     d.num_actions = spec.num_actions;
     d.hidden = spec.hidden;
+    d.split = spec.pair;
     d.activation = spec.activation;
     d.dueling = spec.dueling;
     d.distributional = spec.atoms > 1;

@@ -99,5 +99,42 @@ TEST(PolicyTrainer, ActingWeightsLoadIntoTheActorsNetwork) {
   }
 }
 
+// learner.task_pair_hidden: the task's network is a pair network over the blocks; its weights fit
+// any number of blocks, its spec survives JSON, and actors load what the trainer learns
+TEST(LevelBuilder, TaskPairNetworkOverTheBlocks) {
+  Breakout b;
+  LearnerOptions o;
+  o.task.pair_hidden = {32, 32};
+  auto paddle = BuildSkillSpec(b.spec, b.paddle, 1, nullptr, o.primitive);
+  auto ball = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, o.skill);
+  for (const bool vanilla : {false, true}) {
+    auto task = vanilla ? BuildPrimitiveTaskSpec(b.spec, o.task) : BuildTaskSpec(b.spec, *ball, o.task);
+    ASSERT_TRUE(task.ok()) << task.status().message();
+    EXPECT_EQ(task->pair_factor, "Block");
+    EXPECT_EQ(task->pair.offset, 10);  // after the paddle and the ball
+    EXPECT_EQ(task->pair.instances, 100);
+    EXPECT_EQ(task->pair.instance_dim, 5);
+    EXPECT_EQ(task->pair.presence, 4);  // attr
+    EXPECT_EQ(task->hidden, (std::vector<int>{32, 32}));
+    EXPECT_EQ(task->num_actions, 4);  // four angles, or four primitive actions
+    auto back = policy::LevelSpecFromJson(policy::ToJson(*task));
+    ASSERT_TRUE(back.ok()) << back.status().message();
+    EXPECT_EQ(policy::ToJson(*back), policy::ToJson(*task));
+    auto trainer = PolicyTrainer::Create(*task, o.task, 3);
+    ASSERT_TRUE(trainer.ok()) << trainer.status().message();
+    auto net = policy::PolicyNet::Create(*task);
+    ASSERT_TRUE(net.ok()) << net.status().message();
+    ASSERT_TRUE(net->Load((*trainer)->ActingBlob(), "acting").ok());
+    // a board of 10 blocks (neg): the same weights fit a pair network over 10
+    auto neg = envs::MakeEnv("breakout-neg");
+    auto small =
+        vanilla ? BuildPrimitiveTaskSpec((*neg)->spec(), o.task) : BuildTaskSpec((*neg)->spec(), *ball, o.task);
+    ASSERT_TRUE(small.ok()) << small.status().message();
+    EXPECT_EQ(small->pair.instances, 10);
+    auto small_net = policy::PolicyNet::Create(*small);
+    EXPECT_TRUE(small_net->Load((*trainer)->ActingBlob(), "acting").ok());
+  }
+}
+
 }  // namespace
 }  // namespace coins

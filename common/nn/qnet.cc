@@ -1,0 +1,64 @@
+#include "common/nn/qnet.h"
+
+#include <cassert>
+#include <cmath>
+
+namespace coins::nn {
+
+Status QNetOptions::Validate() const {
+  if (obs_dim <= 0 || outputs <= 0) return Errorf("network: obs_dim {} and outputs {} must be > 0", obs_dim, outputs);
+  if (hidden.empty()) return Errorf("network: at least one hidden layer");
+  if (!split.enabled()) return Status::Ok();
+  const InstanceSplit& s = split;
+  if (s.instance_dim <= 0 || s.offset < 0 || s.offset + s.instances * s.instance_dim > obs_dim)
+    return Errorf("network: {} instances of {} rows at row {} do not fit an observation of {}", s.instances,
+                  s.instance_dim, s.offset, obs_dim);
+  if (s.presence < 0 || s.presence >= s.instance_dim)
+    return Errorf("network: presence row {} outside an instance of {}", s.presence, s.instance_dim);
+  return Status::Ok();
+}
+
+QNet::QNet(QNetOptions options, uint64_t seed) : options_(std::move(options)) {
+  assert(options_.Validate().ok());
+  if (!options_.split.enabled()) {
+    mlp_ =
+        Mlp({LayerSizes(options_.obs_dim, options_.hidden, options_.outputs), options_.hidden_act, options_.output_act},
+            seed);
+    return;
+  }
+  const InstanceSplit& s = options_.split;
+  PairNetOptions p;
+  p.source_dim = options_.obs_dim - s.instances * s.instance_dim;
+  p.instance_dim = s.instance_dim;
+  p.max_instances = s.instances;
+  p.point_sizes = options_.hidden;
+  p.output_dim = options_.outputs;
+  p.hidden = options_.hidden_act;
+  p.output = options_.output_act;
+  pair_ = PairNet(p, seed);
+}
+
+const Eigen::MatrixXf& QNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>& obs) {
+  if (!options_.split.enabled()) return mlp_.Forward(obs);
+  const InstanceSplit& s = options_.split;
+  const Eigen::Index B = obs.cols(), rows = Eigen::Index(s.instances) * s.instance_dim,
+                     tail = obs.rows() - s.offset - rows;
+  source_.resize(obs.rows() - rows, B);
+  source_.topRows(s.offset) = obs.topRows(s.offset);
+  source_.bottomRows(tail) = obs.bottomRows(tail);
+  instances_ = obs.middleRows(s.offset, rows);
+  mask_.resize(s.instances, B);
+  for (Eigen::Index b = 0; b < B; ++b)
+    for (int n = 0; n < s.instances; ++n)
+      mask_(n, b) = std::abs(instances_(Eigen::Index(n) * s.instance_dim + s.presence, b)) > 0.5f ? 1.0f : 0.0f;
+  return pair_.Forward(source_, instances_, mask_);
+}
+
+void QNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout) {
+  if (options_.split.enabled())
+    pair_.Backward(dout);
+  else
+    mlp_.Backward(dout);
+}
+
+}  // namespace coins::nn

@@ -1,0 +1,79 @@
+// QNet: the observation split into a pair network's source, instances and presence mask.
+#include "common/nn/qnet.h"
+
+#include <gtest/gtest.h>
+
+namespace coins::nn {
+namespace {
+
+// observation: 2 rows before, 3 instances of 4 rows (presence row 3), 1 row after
+QNetOptions Split() {
+  QNetOptions o;
+  o.obs_dim = 2 + 3 * 4 + 1;
+  o.hidden = {8, 6};
+  o.outputs = 5;
+  o.split = {2, 3, 4, 3};
+  return o;
+}
+
+Eigen::MatrixXf Observations(int B) {
+  Eigen::MatrixXf obs = Eigen::MatrixXf::Random(15, B);
+  for (int b = 0; b < B; ++b)
+    for (int n = 0; n < 3; ++n) obs(2 + 4 * n + 3, b) = 1.0f;  // present
+  return obs;
+}
+
+TEST(QNet, ASplitObservationIsThePairNetOfItsParts) {
+  QNet net(Split(), 7);
+  PairNetOptions p;
+  p.source_dim = 3;
+  p.instance_dim = 4;
+  p.max_instances = 3;
+  p.point_sizes = {8, 6};
+  p.output_dim = 5;
+  PairNet pair(p, 1);
+  ASSERT_TRUE(pair.params().SameShape(net.params()));
+  pair.params().values = net.params().values;
+  Eigen::MatrixXf obs = Observations(4);
+  obs(2 + 4 * 1 + 3, 2) = 0.0f;  // instance 1 of sample 2 is gone
+  Eigen::MatrixXf source(3, 4), mask = Eigen::MatrixXf::Ones(3, 4);
+  source << obs.topRows(2), obs.bottomRows(1);
+  mask(1, 2) = 0.0f;
+  const Eigen::MatrixXf a = net.Forward(obs);
+  const Eigen::MatrixXf b = pair.Forward(source, obs.middleRows(2, 12), mask);
+  EXPECT_TRUE(a.isApprox(b, 1e-6f)) << (a - b).norm();
+  const Eigen::MatrixXf dout = Eigen::MatrixXf::Random(5, 4);
+  net.Backward(dout);
+  pair.Backward(dout);
+  EXPECT_TRUE(net.params().grads.isApprox(pair.params().grads, 1e-5f));
+}
+
+TEST(QNet, AnAbsentInstanceChangesNothingAndTheOrderOfInstancesNeither) {
+  QNet net(Split(), 3);
+  Eigen::MatrixXf obs = Observations(1);
+  obs(2 + 4 * 2 + 3, 0) = 0.0f;  // instance 2 absent
+  const Eigen::MatrixXf before = net.Forward(obs);
+  obs.block(2 + 4 * 2, 0, 3, 1).setConstant(9.0f);  // whatever an absent instance holds
+  EXPECT_TRUE(net.Forward(obs).isApprox(before, 1e-6f));
+  Eigen::MatrixXf swapped = obs;
+  swapped.block(2, 0, 4, 1) = obs.block(6, 0, 4, 1);
+  swapped.block(6, 0, 4, 1) = obs.block(2, 0, 4, 1);
+  EXPECT_TRUE(net.Forward(swapped).isApprox(before, 1e-5f));
+}
+
+TEST(QNet, WithoutASplitItIsAnMlpAndBadSplitsAreRefused) {
+  QNetOptions o = Split();
+  o.split = {};
+  QNet net(o, 5);
+  Mlp mlp({{15, 8, 6, 5}, Activation::kRelu, Activation::kIdentity}, 5);
+  EXPECT_TRUE(net.params().SameShape(mlp.params()));
+  QNetOptions bad = Split();
+  bad.split.instances = 4;  // 2 + 16 rows > 15
+  EXPECT_FALSE(bad.Validate().ok());
+  bad = Split();
+  bad.split.presence = 4;
+  EXPECT_FALSE(bad.Validate().ok());
+}
+
+}  // namespace
+}  // namespace coins::nn

@@ -197,6 +197,32 @@ Status LearnerCore::KeepSkillsFor(const envs::EnvSpec& target, const std::vector
   for (auto it = trainers_.begin(); it != trainers_.end();)
     it = it->first > int(links.size()) ? trainers_.erase(it) : std::next(it);
   detectors_ = std::move(kept);
+  ForgetJobs();
+  return Status::Ok();
+}
+
+Status LearnerCore::KeepTaskFor(const envs::EnvSpec& target) {
+  PolicyTrainer* old = trainer(1);
+  if (!old || !old->spec().is_task())
+    return Errorf("no task policy over primitive actions to fine-tune (level 1 is {})",
+                  old ? old->spec().name : std::string("missing"));
+  auto spec = BuildPrimitiveTaskSpec(target, options_.task);
+  if (!spec.ok()) return spec.status().WithContext("the task in " + target.name);
+  auto fresh = PolicyTrainer::Create(*spec, options_.task, seed_ + 1000);
+  if (!fresh.ok()) return fresh.status();
+  const rl::AlgorithmState st = old->ExportState();
+  if (Status s = (*fresh)->ImportState(st); !s.ok())
+    return Errorf(
+        "the task network trained on {} does not fit {} ({}{})", env_.name, target.name, s.message(),
+        old->spec().pair.enabled() ? "" : "; a pair network over the blocks, learner.task_pair_hidden, would");
+  trainers_.clear();
+  trainers_[1] = std::move(*fresh);
+  detectors_.clear();
+  ForgetJobs();
+  return Status::Ok();
+}
+
+void LearnerCore::ForgetJobs() {
   specs_.clear();
   published_.clear();
   command_ = msg::ChainCommand();
@@ -209,7 +235,6 @@ Status LearnerCore::KeepSkillsFor(const envs::EnvSpec& target, const std::vector
   status_.checkpoint_epoch(0);
   status_.checkpoint_command(0);
   ClearEval();
-  return Status::Ok();
 }
 
 }  // namespace coins

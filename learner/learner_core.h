@@ -64,6 +64,10 @@ class LearnerCore {
   // those links build in `target` (the transfer run's learner then takes them as they are), and
   // forgets the task level, the job bookkeeping and the evaluation. Errors name the level.
   Status KeepSkillsFor(const envs::EnvSpec& target, const std::vector<msg::LinkSpec>& links);
+  // fine-tuning (a run without a chain): after LoadCheckpoint, keeps only the task over primitive
+  // actions, re-specified for `target` with its weights and optimiser state (a pair network over
+  // the blocks fits any number of blocks; an Mlp over the whole state fits only the same layout)
+  Status KeepTaskFor(const envs::EnvSpec& target);
 
   // the acting models of levels 1..n as actors would hold them (evaluation)
   Result<std::unique_ptr<HierarchyModels>> Models(int levels) const;
@@ -85,7 +89,8 @@ class LearnerCore {
   Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Status Evaluate(uint64_t env_steps);
-  void ClearEval();  // no evaluation reported (a new job starts)
+  void ClearEval();   // no evaluation reported (a new job starts)
+  void ForgetJobs();  // a transfer's new run: no command, job, evaluation or update count
   Status RetrainDetector(SampleSource* source, uint64_t env_steps, Outputs* out);
   void RecordLag(const SampleColumns& c, int level);
   DetectRoundOptions RoundOptions() const;

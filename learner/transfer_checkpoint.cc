@@ -1,5 +1,7 @@
 #include "learner/transfer_checkpoint.h"
 
+#include <algorithm>
+
 #include <nlohmann/json.hpp>
 
 #include "common/policy/weights_msg.h"
@@ -15,11 +17,14 @@ Result<TransferSkills> WriteTransferCheckpoint(const std::string& source_run, co
   if (!checkpoint.ok()) return checkpoint.status();
   LearnerCore core(trained, options, 0);
   COINS_RETURN_IF_ERROR(core.LoadCheckpoint(*checkpoint));
-  COINS_RETURN_IF_ERROR(core.KeepSkillsFor(target, links).WithContext(*checkpoint));
+  if (links.empty())
+    COINS_RETURN_IF_ERROR(core.KeepTaskFor(target).WithContext(*checkpoint));
+  else
+    COINS_RETURN_IF_ERROR(core.KeepSkillsFor(target, links).WithContext(*checkpoint));
   COINS_RETURN_IF_ERROR(core.SaveCheckpoint(out_dir, 0, 0));
   TransferSkills out;
   out.source_checkpoint = *checkpoint;
-  for (int L = 1; L <= int(links.size()); ++L) {
+  for (int L = 1; L <= std::max(1, int(links.size())); ++L) {
     const PolicyTrainer* t = core.trainer(L);
     out.levels.push_back({L, t->spec().name, policy::WeightsChecksum(ToJson(t->spec()).dump(), t->ActingBlob())});
   }

@@ -376,6 +376,16 @@ std::string ChainMachine::Describe() const {
 }
 
 Result<ChainState> TransferState(const ChainState& learned, const std::string& skill) {
+  if (skill.empty()) {  // a run without a chain: its task policy, fine-tuned
+    if (!learned.links.empty()) return Errorf("the run has a chain: name the skill to transfer");
+    if (learned.phase != Phase::kTask && learned.phase != Phase::kDone)
+      return Errorf("the run's task has not started (phase {})", PhaseName(learned.phase));
+    ChainState s;
+    s.phase = Phase::kTask;
+    s.task.started = true;
+    s.note = "fine-tuning the task policy over primitive actions";
+    return s;
+  }
   std::string names;
   for (const Link& l : learned.links) names += (names.empty() ? "" : ", ") + l.spec.source + "->" + l.spec.target;
   if (names.empty()) names = "none";

@@ -79,7 +79,9 @@ class ChainMachine {
 
 // transfer (`coins transfer`): a chain that starts in the task phase over the links of `learned`
 // up to and including the learned link whose target is `skill` (its skills already trained);
-// everything else starts fresh. Errors name what the learned chain lacks.
+// everything else starts fresh. skill "": `learned` is a run without a chain (orchestrator.chain
+// none) whose task policy is fine-tuned: the task phase without links. Errors name what the
+// learned chain lacks.
 Result<ChainState> TransferState(const ChainState& learned, const std::string& skill);
 
 // the goal-reaching rate bookkeeping used by OnSkillCounts (exposed for tests): folds cumulative

@@ -26,6 +26,7 @@ namespace fs = std::filesystem;
 struct TransferSource {
   envs::EnvSpec trained, target;
   chain::ChainState chain;  // the transfer's chain (phase task)
+  bool finetune = false;    // the source has no chain: its task policy is fine-tuned
 };
 
 Result<TransferSource> OpenSource(const TransferFlags& f) {
@@ -44,7 +45,8 @@ Result<TransferSource> OpenSource(const TransferFlags& f) {
   auto learned = store.Load();
   if (!learned.ok()) return learned.status();
   if (!*learned) return Errorf("{}: no chain state ({})", f.source, store.StatePath().string());
-  auto chain = chain::TransferState(**learned, f.skill);
+  const bool finetune = source.orchestrator.chain == "none";
+  auto chain = chain::TransferState(**learned, finetune ? std::string() : f.skill);
   if (!chain.ok()) return chain.status().WithContext(f.source);
   const envs::EnvSpec& spec = (*target)->spec();
   for (const chain::Link& l : chain->links)
@@ -52,7 +54,7 @@ Result<TransferSource> OpenSource(const TransferFlags& f) {
       if (factor != "Action" && spec.factor_index(factor) < 0)
         return Errorf("link {}->{} of {}: env {} has no factor {}", l.spec.source, l.spec.target, f.source, spec.name,
                       factor);
-  return TransferSource{(*trained)->spec(), spec, std::move(*chain)};
+  return TransferSource{(*trained)->spec(), spec, std::move(*chain), finetune};
 }
 
 // the transfer run's chain, learner checkpoint (epoch 0) and transfer.json
@@ -70,13 +72,19 @@ Status SeedRun(const TransferFlags& f, const TransferSource& src, const SystemCo
   nlohmann::json j = {{"from", fs::absolute(f.source).lexically_normal().string()},
                       {"env", src.target.name},
                       {"trained_env", src.trained.name},
-                      {"skill", f.skill}};
+                      {"skill", src.finetune ? "" : f.skill},
+                      {"finetune", src.finetune}};
   for (const chain::Link& l : src.chain.links) j["links"].push_back(l.spec.source + "->" + l.spec.target);
   j.update(ToJson(*skills));
   COINS_RETURN_IF_ERROR(WriteFileAtomic((dir / "transfer.json").string(), j.dump(1) + "\n"));
-  std::cout << fmt::format("coins transfer: the {} skill of {} (trained on {}, {} levels, frozen) on {}", f.skill,
-                           f.source, src.trained.name, skills->levels.size(), src.target.name)
-            << "\n";
+  if (src.finetune)
+    std::cout << fmt::format("coins transfer: fine-tuning the task policy of {} (trained on {}) on {}", f.source,
+                             src.trained.name, src.target.name)
+              << "\n";
+  else
+    std::cout << fmt::format("coins transfer: the {} skill of {} (trained on {}, {} levels, frozen) on {}", f.skill,
+                             f.source, src.trained.name, skills->levels.size(), src.target.name)
+              << "\n";
   return Status::Ok();
 }
 

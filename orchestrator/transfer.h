@@ -12,6 +12,10 @@
 // for exactly S env steps (orchestrator.task_min_steps = task_max_steps = S). RUN/transfer.json
 // records the source run, the skills and their weights' checksums.
 //
+// From a run without a chain (orchestrator.chain none, the vanilla baseline) the transfer is a
+// fine-tuning: the new run continues training that run's task policy on the new env (it needs a
+// network that fits both, e.g. the pair network over the blocks, learner.task_pair_hidden).
+//
 // Refused before anything starts, with one line: a RUN_DIR that is not a run or whose chain has
 // no learned --skill skill, an unknown env, an env whose factors do not match the chain's.
 #pragma once

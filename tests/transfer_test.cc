@@ -280,6 +280,45 @@ TEST(Baseline, WithoutAChainTheTaskTrainsOverPrimitiveActions) {
   EXPECT_NE(e.output.find("\"policy\":\"task\""), std::string::npos) << e.output;
 }
 
+// fine-tuning: a transfer from a run without a chain continues training its task policy (a pair
+// network over the blocks, so it fits the variant's board); a board it cannot fit is refused
+TEST(Baseline, FineTuningStartsFromTheVanillaRunsTaskPolicyAndTrainsIt) {
+  const fs::path dir = TempDir("baseline-finetune");
+  std::ofstream(dir / "config.yaml") << kConfig;
+  const std::string domain = std::to_string(TestDomain());
+  const fs::path pre = dir / "pre";
+  auto r = RunCommand(Bin("coins") + " run --config " + (dir / "config.yaml").string() + " --quiet --dir " +
+                          pre.string() + " --set dds.domain=" + domain +
+                          " --set orchestrator.chain=none --set run.steps=0 --set orchestrator.task_max_steps=3000 "
+                          "--set orchestrator.task_min_steps=3000 --set learner.task_pair_hidden=[16,16]",
+                      std::chrono::seconds(200));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const fs::path out = dir / "single";
+  r = RunCommand(Bin("coins") + " transfer " + pre.string() + " --env breakout-single --steps 3000 --quiet --dir " +
+                     out.string() + " --set dds.domain=" + domain,
+                 std::chrono::seconds(200));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(ReadJson(out / "transfer.json")["finetune"], true);
+  const std::vector<uint8_t> trained = Bytes(fs::path(*FindCheckpoint(pre.string(), -1)) / "trainer-1.bin");
+  ASSERT_FALSE(trained.empty());
+  EXPECT_TRUE(Bytes(fs::path(CheckpointDir(out.string(), 0)) / "trainer-1.bin") == trained)
+      << "the fine-tuning starts from the vanilla run's network and optimiser state";
+  const std::vector<int64_t> epochs = CheckpointEpochs(out.string());
+  ASSERT_GE(epochs.size(), 2u);
+  const fs::path last = CheckpointDir(out.string(), uint64_t(epochs.back()));
+  EXPECT_FALSE(Bytes(last / "trainer-1.bin") == trained) << "and trains it";
+  const nlohmann::json state = ReadJson(last / "state.json");
+  EXPECT_EQ(state["trainers"][0]["spec"]["pair"]["instances"], 1) << "one block in breakout-single";
+  EXPECT_GT(state["total_updates"].get<uint64_t>(), 300u);
+
+  auto prox =
+      RunCommand(Bin("coins") + " transfer " + pre.string() + " --env breakout-prox --dir " + (dir / "prox").string());
+  EXPECT_EQ(prox.code, 2) << prox.output;
+  EXPECT_TRUE(OneLine(prox)) << prox.output;
+  EXPECT_NE(prox.output.find("the task network trained on breakout does not fit breakout-prox"), std::string::npos)
+      << prox.output;
+}
+
 // `coins experiment transfer`: one run per method on one variant, the table from their final
 // evaluations; a second call keeps the finished runs (an interrupted experiment continues)
 TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {

@@ -2,6 +2,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -36,27 +37,39 @@ struct Cell {
   std::vector<double> finals;
   std::vector<RunResult> runs;
   double mean = 0, sd = 0;
+  std::string not_run;  // why the method could not run on this variant
 };
+
+const std::vector<std::string> kMethods = {"coins", "vanilla", "finetune"};
 
 fs::path RunDir(const ExperimentFlags& f, const std::string& variant, const std::string& method, int64_t seed) {
   return fs::path(f.out) / variant / fmt::format("{}-seed{}", method, seed);
 }
 
+fs::path PretrainDir(const ExperimentFlags& f, int64_t seed) {
+  return fs::path(f.out) / "pretrain" / fmt::format("vanilla-seed{}", seed);
+}
+
+// variant "" with method vanilla: the pre-training on base Breakout
 std::vector<std::string> RunArgv(const ExperimentFlags& f, const std::string& variant, const std::string& method,
                                  int64_t seed) {
   const std::string coins = SelfDirectory() + "/coins";
-  const std::string dir = RunDir(f, variant, method, seed).string();
+  const bool pretrain = variant.empty();
+  const std::string dir = (pretrain ? PretrainDir(f, seed) : RunDir(f, variant, method, seed)).string();
+  const std::string env = pretrain ? "breakout" : "breakout-" + variant;
+  const int64_t steps = pretrain ? f.pretrain_steps : f.steps;
   std::vector<std::string> argv;
-  if (method == "coins") {
-    argv = {coins, "transfer", f.chain, "--env", "breakout-" + variant, "--steps", std::to_string(f.steps)};
+  if (method == "coins" || method == "finetune") {
+    const std::string from = method == "coins" ? f.chain : PretrainDir(f, seed).string();
+    argv = {coins, "transfer", from, "--env", env, "--steps", std::to_string(steps)};
   } else {
     argv = {coins,      "run",
             "--config", (fs::path(f.chain) / "config.yaml").string(),
-            "--env",    "breakout-" + variant,
+            "--env",    env,
             "--set",    "orchestrator.chain=none",
             "--set",    "run.steps=0",
-            "--set",    fmt::format("orchestrator.task_max_steps={}", f.steps),
-            "--set",    fmt::format("orchestrator.task_min_steps={}", f.steps),
+            "--set",    fmt::format("orchestrator.task_max_steps={}", steps),
+            "--set",    fmt::format("orchestrator.task_min_steps={}", steps),
             "--set",    "replay.snapshot_dir=" + dir + "/replay"};
   }
   for (const std::string& s :
@@ -69,8 +82,9 @@ std::vector<std::string> RunArgv(const ExperimentFlags& f, const std::string& va
   return argv;
 }
 
-// runs one child to its end; Ctrl-C stops it (SIGINT, its own clean stop) and the experiment
-Status RunChild(const std::vector<std::string>& argv, const std::string& log) {
+// runs one child to its end; Ctrl-C stops it (SIGINT, its own clean stop) and the experiment.
+// A run refused before it started (exit code 2) sets *refused to its one-line reason.
+Status RunChild(const std::vector<std::string>& argv, const std::string& log, std::string* refused) {
   auto child = ChildProcess::Spawn("run", argv, log);
   if (!child.ok()) return child.status();
   while (!child->WaitFor(std::chrono::milliseconds(200))) {
@@ -79,8 +93,48 @@ Status RunChild(const std::vector<std::string>& argv, const std::string& log) {
     if (!child->WaitFor(std::chrono::seconds(120))) child->Signal(SIGKILL), child->WaitFor(std::chrono::seconds(5));
     return Errorf("interrupted; the finished runs are kept (run the same command again to continue)");
   }
+  if (refused && WIFEXITED(child->status()) && WEXITSTATUS(child->status()) == 2) {
+    std::ifstream in(log);
+    std::getline(in, *refused);
+    return Status::Ok();
+  }
   if (!child->succeeded()) return Errorf("{} {}; see {}", argv[1], child->Describe(), log);
   return Status::Ok();
+}
+
+// the final return of a finished run: `coins eval` of its newest checkpoint (greedy task with the
+// evaluation epsilon, eval_episodes episodes, a fixed seed), kept in dir/final-eval.json
+Status FinalEval(const fs::path& dir, int64_t episodes, int64_t seed, RunResult* r) {
+  const fs::path file = dir / "final-eval.json";
+  if (!fs::exists(file)) {
+    auto ran = RunBounded({SelfDirectory() + "/coins", "eval", dir.string(), "--episodes", std::to_string(episodes),
+                           "--seed", std::to_string(1000 + seed), "--json"},
+                          file.string() + ".tmp", std::chrono::seconds(1800));
+    if (!Succeeded(ran)) return Errorf("coins eval {} failed; see {}.tmp", dir.string(), file.string());
+    fs::rename(file.string() + ".tmp", file);
+  }
+  std::ifstream in(file);
+  const json j = json::parse(in, nullptr, false);
+  if (!j.is_object() || !j.contains("return_mean"))
+    return Errorf("{}: not a `coins eval --json` result", file.string());
+  r->final_return = j["return_mean"].get<double>();
+  r->final_sd = j.value("return_sd", 0.0);
+  return Status::Ok();
+}
+
+// a finished run in dir, run now when it is not there yet; refused: see RunChild
+Result<RunResult> EnsureRun(const fs::path& dir, const std::vector<std::string>& argv, const std::string& what,
+                            std::string* refused) {
+  auto result = ReadRunResult(dir.string());
+  if (!result.ok() || result->done) return result;
+  std::cout << fmt::format("{}: running in {}", what, dir.string()) << std::endl;
+  fs::create_directories(dir.parent_path());
+  COINS_RETURN_IF_ERROR(RunChild(argv, dir.string() + ".log", refused));
+  if (refused && !refused->empty()) return RunResult{};
+  result = ReadRunResult(dir.string());
+  if (result.ok() && !result->done)
+    return Errorf("{}: the run ended without finishing its task (see {}.log)", dir.string(), dir.string());
+  return result;
 }
 
 void MeanSd(Cell& c) {
@@ -146,11 +200,12 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
             {"steps", f.steps},
             {"seeds", f.seeds},
             {"methods", f.methods},
-            {"final", "the last greedy evaluation of each run (learner.eval_episodes episodes)"}};
+            {"final", fmt::format("coins eval of each run's final checkpoint, {} episodes", f.eval_episodes)}};
   std::string md = fmt::format(
-      "# Transfer to the Breakout variants\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: the "
-      "last greedy evaluation of each run; mean +- sd over seeds.\n\n| variant |",
-      f.chain, f.steps, f.seeds);
+      "# Transfer to the Breakout variants\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: "
+      "`coins eval` of each run's final checkpoint ({} episodes, task epsilon 0.05); mean +- sd over seeds.\n\n"
+      "| variant |",
+      f.chain, f.steps, f.seeds, f.eval_episodes);
   for (const auto& m : f.methods) md += fmt::format(" {} |", m);
   for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
   for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final |", m);
@@ -166,7 +221,8 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       const Cell& c = row.at(m);
       json& out = j["variants"][v][m];
       out = {{"mean", c.mean}, {"sd", c.sd}, {"runs", c.finals}};
-      md += c.finals.empty() ? " - |" : fmt::format(" {:.2f} +- {:.2f} |", c.mean, c.sd);
+      if (!c.not_run.empty()) out["not_run"] = c.not_run;
+      md += c.finals.empty() ? " not run |" : fmt::format(" {:.2f} +- {:.2f} |", c.mean, c.sd);
       if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
     }
     for (const auto& m : f.methods) {
@@ -178,6 +234,10 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       md += has_vanilla ? " " + Reach(j["variants"][v][m]["steps_to_vanilla_final"]) + " |" : " - |";
     md += "\n";
   }
+  for (const auto& v : f.variants)
+    for (const auto& m : f.methods)
+      if (!cells.at(v).at(m).not_run.empty())
+        md += fmt::format("\n- {} on breakout-{}: not run: {}", m, v, cells.at(v).at(m).not_run);
   COINS_RETURN_IF_ERROR(WriteFileAtomic((fs::path(f.out) / "transfer.json").string(), j.dump(1) + "\n"));
   return WriteFileAtomic((fs::path(f.out) / "transfer.md").string(), md);
 }
@@ -188,7 +248,8 @@ Status Check(ExperimentFlags& f) {
     if (!kPaper.count(v))
       return Errorf("--variants: unknown variant '{}' (known: single, hard, big, neg, center, prox)", v);
   for (const auto& m : f.methods)
-    if (m != "coins" && m != "vanilla") return Errorf("--methods: unknown method '{}' (known: coins, vanilla)", m);
+    if (std::find(kMethods.begin(), kMethods.end(), m) == kMethods.end())
+      return Errorf("--methods: unknown method '{}' (known: coins, vanilla, finetune)", m);
   if (f.out.empty()) f.out = (fs::path(f.chain) / "experiment-transfer").string();
   std::error_code ec;
   fs::create_directories(f.out, ec);
@@ -217,8 +278,6 @@ Result<RunResult> ReadRunResult(const std::string& dir) {
     if (!std::getline(ss, steps, ',') || !std::getline(ss, mean, ',')) continue;
     r.curve.emplace_back(std::stoull(steps), std::stod(mean));
   }
-  if (r.done && r.curve.empty())
-    return Errorf("{}: finished without an evaluation (a budget shorter than learner.eval_every_steps?)", dir);
   return r;
 }
 
@@ -232,28 +291,25 @@ Status RunTransferExperiment(const ExperimentFlags& flags) {
   for (const auto& v : f.variants)
     for (const auto& m : f.methods)
       for (int64_t s = 1; s <= f.seeds; ++s) {
-        const fs::path dir = RunDir(f, v, m, s);
-        auto result = ReadRunResult(dir.string());
-        if (!result.ok()) return result.status();
-        std::string what = "kept";
-        if (!result->done) {
-          std::cout << fmt::format("[{}/{}] breakout-{} {} seed {}: running ({} env steps) in {}", ++n, total, v, m, s,
-                                   f.steps, dir.string())
-                    << std::endl;
-          fs::create_directories(dir.parent_path());
-          COINS_RETURN_IF_ERROR(RunChild(RunArgv(f, v, m, s), dir.string() + ".log"));
-          result = ReadRunResult(dir.string());
-          if (!result.ok()) return result.status();
-          if (!result->done)
-            return Errorf("{}: the run ended without finishing its task (see {}.log)", dir.string(), dir.string());
-          what = fmt::format("{:.0f} s", result->wall_s);
-        } else {
-          ++n;
-        }
-        std::cout << fmt::format("[{}/{}] breakout-{} {} seed {}: final eval return {:.2f} ({})", n, total, v, m, s,
-                                 result->final_return, what)
-                  << std::endl;
+        const std::string what = fmt::format("[{}/{}] breakout-{} {} seed {}", ++n, total, v, m, s);
         Cell& c = cells[v][m];
+        if (m == "finetune") {
+          auto pre = EnsureRun(
+              PretrainDir(f, s), RunArgv(f, "", "vanilla", s),
+              fmt::format("pre-training vanilla on breakout, seed {} ({} env steps)", s, f.pretrain_steps), nullptr);
+          if (!pre.ok()) return pre.status();
+        }
+        std::string refused;
+        auto result = EnsureRun(RunDir(f, v, m, s), RunArgv(f, v, m, s), what, &refused);
+        if (!result.ok()) return result.status();
+        if (!refused.empty()) {
+          std::cout << what << ": not run: " << refused << std::endl;
+          c.not_run = refused;
+          continue;
+        }
+        COINS_RETURN_IF_ERROR(FinalEval(RunDir(f, v, m, s), f.eval_episodes, s, &*result));
+        std::cout << fmt::format("{}: final eval return {:.2f} ({:.0f} s)", what, result->final_return, result->wall_s)
+                  << std::endl;
         c.finals.push_back(result->final_return);
         c.runs.push_back(*result);
       }
@@ -276,9 +332,13 @@ void AddExperimentCommand(CLI::App& app, int* exit_code) {
       "transfer", "COInS transfer against vanilla DQN on the Breakout variants (the paper's transfer table).");
   t->add_option("--chain", f->chain, "run directory of a learned Breakout chain (with its Ball skill)")->required();
   t->add_option("--variants", f->variants, "variants (default: all six)")->delimiter(',');
-  t->add_option("--methods", f->methods, "methods: coins, vanilla (default: both)")->delimiter(',');
+  t->add_option("--methods", f->methods, "methods: coins, vanilla, finetune (default: all three)")->delimiter(',');
   t->add_option("--seeds", f->seeds, "seeds per variant and method")->check(CLI::Range(1, 100));
   t->add_option("--steps", f->steps, "env steps of each run")->check(cli::Integer(1000, int64_t(1) << 40));
+  t->add_option("--eval-episodes", f->eval_episodes, "episodes of the final evaluation of each run")
+      ->check(CLI::Range(1, 100000));
+  t->add_option("--pretrain-steps", f->pretrain_steps, "finetune: env steps of the vanilla run on base Breakout")
+      ->check(cli::Integer(1000, int64_t(1) << 40));
   t->add_option("--out", f->out, "output directory (default: CHAIN/experiment-transfer)");
   t->add_option("--set", f->overrides, "a config override for every run (repeatable)");
   t->callback([f, exit_code] {

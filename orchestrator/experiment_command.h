@@ -5,10 +5,15 @@
 //            chain's frozen ball skill;
 //   vanilla  `coins run` with RUN_DIR's config, orchestrator.chain none: the task alone over
 //            primitive actions from scratch, same state inputs (plus the relative paddle-ball
-//            features), network family and env step budget.
+//            features), network family and env step budget;
+//   finetune `coins transfer` from a vanilla run pre-trained on base Breakout (--pretrain-steps,
+//            one per seed, in OUT/pretrain/): its task policy trained further on the variant. It
+//            needs a network that fits every board (learner.task_pair_hidden, a pair network);
+//            a variant it cannot fit is reported as not run, with the reason.
 // A run whose directory already holds a finished summary is kept, so an interrupted experiment
-// continues where it stopped. The final eval return of a run is its last evaluation (the
-// learner's greedy task evaluation, learner.eval_episodes episodes). Written to OUT:
+// continues where it stopped. The final eval return of a run is `coins eval` of its final
+// checkpoint (--eval-episodes, a fixed seed per run); its curve is the learner's periodic
+// evaluations (eval.csv). Written to OUT:
 // transfer.json and transfer.md (mean +- sd over seeds beside the paper's numbers, and the env
 // steps each method needed to reach vanilla's final return), and curves-VARIANT.png.
 #pragma once
@@ -25,9 +30,11 @@ namespace coins {
 struct ExperimentFlags {
   std::string chain;  // RUN_DIR with a learned chain
   std::vector<std::string> variants = {"single", "hard", "big", "neg", "center", "prox"};
-  std::vector<std::string> methods = {"coins", "vanilla"};
+  std::vector<std::string> methods = {"coins", "vanilla", "finetune"};
   int64_t seeds = 3;
   int64_t steps = 100'000;
+  int64_t pretrain_steps = 100'000;    // finetune: the vanilla run on base Breakout
+  int64_t eval_episodes = 20;          // the final evaluation of each run
   std::string out;                     // default RUN_DIR/experiment-transfer
   std::vector<std::string> overrides;  // --set for every run
 };
@@ -38,7 +45,7 @@ Status RunTransferExperiment(const ExperimentFlags& flags);
 // one finished run's figures (from its summary.json and eval.csv)
 struct RunResult {
   bool done = false;
-  double final_return = 0;
+  double final_return = 0, final_sd = 0;           // the final evaluation (summary.json's until FinalEval)
   std::vector<std::pair<uint64_t, double>> curve;  // (env steps, eval return mean)
   double wall_s = 0;
 };

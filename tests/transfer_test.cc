@@ -326,28 +326,42 @@ TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
   ASSERT_FALSE(HasFatalFailure());
   const fs::path out = TempDir("experiment-transfer") / "out";
   const std::string cmd = Bin("coins") + " experiment transfer --chain " + src.string() +
-                          " --variants single --seeds 1 --steps 3000 --out " + out.string() +
-                          " --set dds.domain=" + std::to_string(TestDomain());
+                          " --variants single,prox --seeds 1 --steps 3000 --pretrain-steps 3000 --out " + out.string() +
+                          " --set learner.task_pair_hidden=[16,16] --set dds.domain=" + std::to_string(TestDomain());
   auto r = RunCommand(cmd, std::chrono::seconds(300));
   ASSERT_EQ(r.code, 0) << r.output;
   const nlohmann::json t = ReadJson(out / "transfer.json");
   ASSERT_TRUE(t.is_object()) << r.output;
-  for (const char* m : {"coins", "vanilla"}) {
+  for (const char* m : {"coins", "vanilla", "finetune"}) {
     const nlohmann::json& cell = t["variants"]["single"][m];
     ASSERT_EQ(cell["runs"].size(), 1u) << m;
-    const nlohmann::json summary = ReadJson(out / "single" / (std::string(m) + "-seed1") / "summary.json");
-    EXPECT_EQ(summary["phase"], "done") << m;
-    EXPECT_DOUBLE_EQ(cell["runs"][0].get<double>(), summary["eval"]["mean"].get<double>()) << m;
+    const fs::path run = out / "single" / (std::string(m) + "-seed1");
+    EXPECT_EQ(ReadJson(run / "summary.json")["phase"], "done") << m;
+    const nlohmann::json final_eval = ReadJson(run / "final-eval.json");  // `coins eval` of the final checkpoint
+    ASSERT_TRUE(final_eval.is_object()) << m;
+    EXPECT_EQ(final_eval["episodes"], 20) << m;
+    EXPECT_EQ(final_eval["env"], "breakout-single") << m;
+    EXPECT_DOUBLE_EQ(cell["runs"][0].get<double>(), final_eval["return_mean"].get<double>()) << m;
   }
   EXPECT_DOUBLE_EQ(t["variants"]["single"]["paper"]["coins"].get<double>(), -3.2);
   EXPECT_TRUE(fs::exists(out / "transfer.md"));
   EXPECT_TRUE(fs::exists(out / "single" / "coins-seed1" / "transfer.json")) << "the coins column is a transfer";
   EXPECT_FALSE(fs::exists(out / "single" / "vanilla-seed1" / "transfer.json"));
+  EXPECT_EQ(ReadJson(out / "single" / "finetune-seed1" / "transfer.json")["from"],
+            fs::absolute(out / "pretrain" / "vanilla-seed1").lexically_normal().string());
+  // the pre-trained network has no place for prox's target block: not run, with the reason
+  EXPECT_TRUE(t["variants"]["prox"]["finetune"]["runs"].empty());
+  EXPECT_NE(t["variants"]["prox"]["finetune"]["not_run"].get<std::string>().find("does not fit breakout-prox"),
+            std::string::npos);
+  EXPECT_EQ(t["variants"]["prox"]["coins"]["runs"].size(), 1u);
 
-  auto again = RunCommand(cmd, std::chrono::seconds(60));
+  auto again = RunCommand(cmd, std::chrono::seconds(120));
   ASSERT_EQ(again.code, 0) << again.output;
   EXPECT_NE(again.output.find("coins seed 1: final eval return"), std::string::npos) << again.output;
-  EXPECT_EQ(again.output.find("running"), std::string::npos) << "finished runs are kept: " << again.output;
+  for (const char* run : {"single coins", "single vanilla", "single finetune", "prox coins", "prox vanilla"})
+    EXPECT_EQ(again.output.find(std::string(run) + " seed 1: running"), std::string::npos)
+        << "finished runs are kept: " << again.output;
+  EXPECT_EQ(again.output.find("pre-training"), std::string::npos) << again.output;
 
   auto bad = RunCommand(Bin("coins") + " experiment transfer --chain " + src.string() + " --variants tiny");
   EXPECT_EQ(bad.code, 2);

@@ -84,7 +84,10 @@ Result<ChainState> ChainStore::LoadFile(const fs::path& path) const {
   if (j.contains("config") && j["config"].is_object())
     for (const auto& [k, v] : j["config"].items())
       if (v.is_string()) theirs[k] = v.get<std::string>();
-  if (StringField(j, "config_hash") != hash_ || theirs != fingerprint_) {
+  bool added = false;  // keys the file predates
+  for (const auto& [k, v] : defaults_)
+    if (!theirs.count(k)) theirs[k] = v, added = true;
+  if ((!added && StringField(j, "config_hash") != hash_) || theirs != fingerprint_) {
     std::string diff = FirstDifference(fingerprint_, theirs, path.string());
     return Errorf("chain state {} was written for another config: {}", path.string(),
                   diff.empty() ? "its config hash differs" : diff);

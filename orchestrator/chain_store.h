@@ -34,6 +34,10 @@ class ChainStore {
  public:
   // dir: RUN_DIR/chain; fingerprint: ChainFingerprint of the running config
   ChainStore(std::filesystem::path dir, ConfigValues fingerprint);
+  // a file written before a config key existed is read as holding that key's default here
+  // (defaults: the ChainFingerprint of the default config), so adding a key does not orphan
+  // every older run; a key changed from its default still refuses the file
+  void AcceptKeysAddedSince(ConfigValues defaults) { defaults_ = std::move(defaults); }
 
   std::filesystem::path StatePath() const { return dir_ / "chain.json"; }
   std::filesystem::path EpochPath(uint64_t epoch) const;
@@ -52,6 +56,7 @@ class ChainStore {
 
   std::filesystem::path dir_;
   ConfigValues fingerprint_;
+  ConfigValues defaults_;
   std::string hash_;
 };
 

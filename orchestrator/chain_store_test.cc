@@ -135,6 +135,29 @@ TEST(ChainStore, AStateOfAnotherConfigIsRefusedNamingTheKey) {
   EXPECT_NE(other.status().message().find("learner.lr"), std::string::npos) << other.status().message();
 }
 
+// a key added to the config after the file was written: read as its default, so the older run
+// still loads while the new key keeps its default, and is refused once it is changed
+TEST(ChainStore, AFileThatPredatesAKeyLoadsWhileTheKeyHoldsItsDefault) {
+  fs::path dir = FreshDir("added-key");
+  ASSERT_TRUE(ChainStore(dir, Fingerprint()).Save(SomeState()).ok());
+  ConfigValues now = Fingerprint(), defaults = Fingerprint();
+  now["orchestrator.chain"] = defaults["orchestrator.chain"] = "coins";
+  ChainStore store(dir, now);
+  EXPECT_FALSE(store.Load().ok()) << "without the defaults the added key is a difference";
+  store.AcceptKeysAddedSince(defaults);
+  auto loaded = store.Load();
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message();
+  EXPECT_EQ((*loaded)->seq, SomeState().seq);
+  EXPECT_EQ((*loaded)->links, SomeState().links);
+  now["orchestrator.chain"] = "none";
+  ChainStore changed(dir, now);
+  changed.AcceptKeysAddedSince(defaults);
+  auto refused = changed.Load();
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("orchestrator.chain is none here, coins in"), std::string::npos)
+      << refused.status().message();
+}
+
 TEST(ChainStore, EpochFilesAreListedAndLoaded) {
   fs::path dir = FreshDir("epochs");
   ChainStore store(dir, Fingerprint());

@@ -44,7 +44,7 @@ int OrchestratorMain(int argc, char** argv) {
 
   auto env = envs::MakeEnv(config.run.env);
   if (!env.ok()) return ExitWithError(env.status().WithContext("run.env"), 2);
-  chain::ChainStore store(std::filesystem::path(config.run.dir) / "chain", ChainFingerprint(config.Values()));
+  chain::ChainStore store = OpenChainStore(config.run.dir, config);
   auto machine = OpenChain(store, (*env)->spec(), config.orchestrator, resume_epoch);
   if (!machine.ok()) return ExitWithError(machine.status(), 1);
 

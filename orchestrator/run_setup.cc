@@ -46,6 +46,7 @@ Status Load(SystemConfig& c, const std::string& file, const std::vector<std::str
 Result<int64_t> NewestEpoch(const fs::path& chain_dir, const ConfigValues& fingerprint,
                             std::vector<std::string>* notes) {
   chain::ChainStore store(chain_dir, fingerprint);
+  store.AcceptKeysAddedSince(ChainFingerprint(SystemConfig{}.Values()));
   std::vector<uint64_t> epochs = chain::ChainStore::Epochs(chain_dir);
   for (auto it = epochs.rbegin(); it != epochs.rend(); ++it) {
     auto s = store.LoadEpoch(*it);

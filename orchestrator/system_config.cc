@@ -14,4 +14,10 @@ std::vector<ConfigSection> SystemConfig::Sections(bool with_dds) {
   return s;
 }
 
+chain::ChainStore OpenChainStore(const std::filesystem::path& run_dir, SystemConfig& c) {
+  chain::ChainStore store(run_dir / "chain", ChainFingerprint(c.Values()));
+  store.AcceptKeysAddedSince(ChainFingerprint(SystemConfig{}.Values()));
+  return store;
+}
+
 }  // namespace coins

@@ -3,6 +3,7 @@
 // is the learner's LearnerOptions::detector.
 #pragma once
 
+#include <filesystem>
 #include <vector>
 
 #include "actors/actor_options.h"
@@ -10,6 +11,7 @@
 #include "common/dds/dds_options.h"
 #include "common/run_options.h"
 #include "learner/learner_options.h"
+#include "orchestrator/chain_store.h"
 #include "orchestrator/config_values.h"
 #include "orchestrator/orchestrator_options.h"
 #include "replay/replay_options.h"
@@ -29,5 +31,8 @@ struct SystemConfig {
   ConfigLoader Loader() { return ConfigLoader(Sections()); }
   ConfigValues Values() { return FlattenConfig(Sections()); }
 };
+
+// the chain store of a run directory for config c, reading files written before newer keys
+chain::ChainStore OpenChainStore(const std::filesystem::path& run_dir, SystemConfig& c);
 
 }  // namespace coins

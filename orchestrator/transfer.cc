@@ -41,7 +41,7 @@ Result<TransferSource> OpenSource(const TransferFlags& f) {
   if (!trained.ok()) return trained.status().WithContext(config);
   auto target = envs::MakeEnv(f.env);
   if (!target.ok()) return target.status().WithContext("--env");
-  chain::ChainStore store(dir / "chain", ChainFingerprint(source.Values()));
+  chain::ChainStore store = OpenChainStore(dir, source);
   auto learned = store.Load();
   if (!learned.ok()) return learned.status();
   if (!*learned) return Errorf("{}: no chain state ({})", f.source, store.StatePath().string());
@@ -61,7 +61,7 @@ Result<TransferSource> OpenSource(const TransferFlags& f) {
 Status SeedRun(const TransferFlags& f, const TransferSource& src, const SystemConfig& config) {
   SystemConfig c = config;
   const fs::path dir(c.run.dir);
-  chain::ChainStore store(dir / "chain", ChainFingerprint(c.Values()));
+  chain::ChainStore store = OpenChainStore(dir, c);
   COINS_RETURN_IF_ERROR(store.Save(src.chain));
   COINS_RETURN_IF_ERROR(store.SaveEpoch(src.chain));
   std::vector<msg::LinkSpec> links;

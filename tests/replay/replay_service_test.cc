@@ -71,8 +71,9 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   auto client = c.Client(o);
   ASSERT_TRUE(client->WaitForShards(20s));
   rl::Batch batch;
+  int batches = 0;  // batches of 256 the shards served together
   // uniform, n-step: both shards contribute in proportion to their sizes
-  for (int round = 0; round < 3; ++round) {
+  for (int round = 0; round < 3; ++round, ++batches) {
     Status s = client->Sample(256, &batch);
     ASSERT_TRUE(s.ok()) << s.message();
   }
@@ -94,6 +95,7 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   client->options().strategy = msg::SAMPLE_PRIORITIZED;
   client->options().n_step = 1;
   ASSERT_TRUE(client->Sample(256, &batch).ok());
+  ++batches;
   // four keys from each shard (each shard samples its share from its own priorities)
   std::vector<uint64_t> hot;
   for (uint32_t k = 0; k < 2; ++k)
@@ -107,6 +109,7 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   ASSERT_TRUE(WaitUntil(
       [&] {
         if (!client->Sample(256, &batch).ok()) return false;
+        ++batches;
         hits = 0;
         for (uint64_t k : batch.keys) hits += hot_set.count(k);
         return hits > 200;
@@ -125,6 +128,7 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   client->options().goal_epsilon = 0.5f;
   Status s = client->Sample(256, &batch);
   ASSERT_TRUE(s.ok()) << s.message();
+  ++batches;
   const int S = int(batch.obs.rows()) - 2;
   int reached = 0;
   for (int j = 0; j < 256; ++j) {
@@ -139,6 +143,7 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
 
   // exactly once, and the stored bytes hash to what the actors sent
   StopAll(c.shards, 10s);
+  int64_t served = 0;
   for (int i = 0; i < 2; ++i) {
     auto actor = ReadJson(c.dir / ("actor-" + std::to_string(i) + ".json"));
     auto shard = ReadJson(c.dir / ("replay-" + std::to_string(i) + ".json"));
@@ -152,8 +157,12 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
     EXPECT_EQ(ledger["stored_transitions"], actor["transitions_published"]);
     EXPECT_EQ(shard["duplicates"], 0);
     EXPECT_EQ(shard["gaps"], 0);
-    EXPECT_GT(shard["samples_served"].get<int64_t>(), 256 * 3);
+    EXPECT_GT(shard["samples_served"].get<int64_t>(), 0);
+    served += shard["samples_served"].get<int64_t>();
   }
+  // every row of every batch came from a shard (a shard may have served a request whose
+  // other half timed out, so at least)
+  EXPECT_GE(served, 256 * batches);
 }
 
 TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {

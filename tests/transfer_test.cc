@@ -16,6 +16,7 @@
 #include "common/files.h"
 #include "learner/checkpoint_dirs.h"
 #include "learner/local_run.h"
+#include "orchestrator/chain_messages.h"
 #include "orchestrator/chain_store.h"
 #include "orchestrator/config_values.h"
 #include "orchestrator/system_config.h"
@@ -71,18 +72,6 @@ chain::LinkSpec PaddleLink() { return {"Action", "Paddle", 4.35, {0, 1, 0, 0, 0}
 chain::LinkSpec BallLink() {
   return {"Paddle", "Ball", 11639.6, {0, 0, 1, 1, 0}, "discrete", {-2, -1, -2, 1, -1, -1, -1, 1}, 0.0037};
 }
-msg::LinkSpec ToMsg(const chain::LinkSpec& l) {
-  msg::LinkSpec m;
-  m.source(l.source);
-  m.target(l.target);
-  m.score(l.score);
-  m.mask(l.mask);
-  m.goal_kind(l.goal_kind);
-  m.goal_set(l.goal_set);
-  m.interaction_rate(l.interaction_rate);
-  return m;
-}
-
 // trains until the learner has done `updates` more updates of its current job
 void Train(LocalRun& r, int updates) {
   for (int i = 0; i < 200 && r.learner().status().updates() < uint64_t(updates); ++i) {
@@ -112,7 +101,7 @@ void MakeSourceRun(const fs::path& run) {
   auto made = LocalRun::Create(o);
   ASSERT_TRUE(made.ok()) << made.status().message();
   LocalRun& r = **made;
-  const msg::LinkSpec paddle = ToMsg(PaddleLink()), ball = ToMsg(BallLink());
+  const msg::LinkSpec paddle = ToMessage(PaddleLink()), ball = ToMessage(BallLink());
   ASSERT_TRUE(r.Command(Command(1, "idle", 0, 4000, {})).ok());
   ASSERT_TRUE(r.StepActors(100000).ok());
   ASSERT_TRUE(r.Command(Command(2, "train-skill", 1, 5000, {paddle})).ok());

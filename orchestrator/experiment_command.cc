@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -276,7 +277,11 @@ Result<RunResult> ReadRunResult(const std::string& dir) {
     std::stringstream ss(line);
     std::string steps, mean;
     if (!std::getline(ss, steps, ',') || !std::getline(ss, mean, ',')) continue;
-    r.curve.emplace_back(std::stoull(steps), std::stod(mean));
+    char* end = nullptr;
+    const uint64_t at = std::strtoull(steps.c_str(), &end, 10);
+    const double ret = std::strtod(mean.c_str(), &end);
+    if (end == mean.c_str() || !std::isfinite(ret)) continue;  // a cut or damaged line
+    r.curve.emplace_back(at, ret);
   }
   return r;
 }

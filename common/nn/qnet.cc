@@ -46,12 +46,11 @@ const Eigen::MatrixXf& QNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>& ob
   source_.resize(obs.rows() - rows, B);
   source_.topRows(s.offset) = obs.topRows(s.offset);
   source_.bottomRows(tail) = obs.bottomRows(tail);
-  instances_ = obs.middleRows(s.offset, rows);
   mask_.resize(s.instances, B);
   for (Eigen::Index b = 0; b < B; ++b)
     for (int n = 0; n < s.instances; ++n)
-      mask_(n, b) = std::abs(instances_(Eigen::Index(n) * s.instance_dim + s.presence, b)) > 0.5f ? 1.0f : 0.0f;
-  return pair_.Forward(source_, instances_, mask_);
+      mask_(n, b) = std::abs(obs(s.offset + Eigen::Index(n) * s.instance_dim + s.presence, b)) > 0.5f ? 1.0f : 0.0f;
+  return pair_.Forward(source_, obs.middleRows(s.offset, rows), mask_);
 }
 
 void QNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout) {

@@ -59,7 +59,7 @@ class QNet {
   QNetOptions options_;
   Mlp mlp_;
   PairNet pair_;
-  Eigen::MatrixXf source_, instances_, mask_;  // the split of the last Forward
+  Eigen::MatrixXf source_, mask_;  // the split of the last Forward (the instances are read in place)
 };
 
 }  // namespace coins::nn

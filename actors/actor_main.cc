@@ -34,6 +34,8 @@ nlohmann::json StatsJson(const msg::ActorStats& s) {
           {"payload_checksum", s.payload_checksum()},
           {"publish_retries", s.publish_retries()},
           {"weights_rejected", s.weights_rejected()},
+          {"env_errors", s.env_errors()},
+          {"goals_clipped", s.goals_clipped()},
           {"detector",
            {{"pair", s.detector_pair()},
             {"states", s.detector_states()},
@@ -174,6 +176,10 @@ class StatsReporter {
     stats_.transitions_published(c.transitions_published);
     stats_.payload_checksum(c.payload_checksum);
     stats_.publish_retries(sink_.retries());
+    stats_.env_errors(c.step_errors);
+    uint64_t clipped = 0;
+    for (uint64_t n : c.hierarchy.goals_clipped) clipped += n;
+    stats_.goals_clipped(clipped);
     stats_.mean_episode_return(c.returns_counted ? c.return_sum / c.returns_counted : 0.0);
     if (chain_) chain_->Fill(&stats_, c);
     return stats_;

@@ -52,6 +52,8 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       if (on_step) on_step({ep, state, action, next, &sr});
       ret += sr.reward;
       ++r.steps;
+      if (task && sr.done) ++r.episodes_done;
+      if (task && !env.spec().penalty_means.empty() && sr.reward <= env.spec().penalty_reward) ++r.penalty_steps;
       over = sr.done || sr.truncated;
       std::swap(state, next);
       if (!task && runner.counters().goals_ended[skill_level - 1] >= uint64_t(o.episodes)) break;

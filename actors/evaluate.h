@@ -39,6 +39,8 @@ struct EvalResult {
   double hit_rate = 0;                          // goals_interacted / goals_ended
   double accuracy = 0;                          // goals_reached / goals_interacted (the angle, given a bounce)
   int64_t steps = 0;
+  int64_t episodes_done = 0;  // task: episodes the env ended as terminal (EnvSpec::done_means)
+  int64_t penalty_steps = 0;  // task: steps whose reward was a penalty (EnvSpec::penalty_means)
 };
 
 // one step of an evaluation, for recorders (rollout files, pictures)

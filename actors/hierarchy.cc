@@ -95,7 +95,8 @@ void HierarchyRunner::ChooseAction(int level, std::span<const float> state) {
   if (level == 1) return;
   // the child's goal
   LevelState& child = levels_[size_t(level) - 2];
-  policy::ToChildGoal(s, models_->at(level - 1)->spec().goal, ls.action.data(), state.data(), child.goal.data());
+  if (policy::ToChildGoal(s, models_->at(level - 1)->spec().goal, ls.action.data(), state.data(), child.goal.data()))
+    counters_.goals_clipped[level - 2]++;
   child.has_goal = true;
   child.goal_steps = 0;
 }

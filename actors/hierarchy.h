@@ -64,6 +64,8 @@ struct HierarchyCounters {
   uint64_t goals_ended[8] = {}, goals_reached[8] = {};
   // of the attempts, those ended by a detected link interaction (a bounce, reached or not)
   uint64_t goals_interacted[8] = {};
+  // child goals a level chose outside the child's goal space, clipped to it (per child level)
+  uint64_t goals_clipped[8] = {};
   // the top acting link's detector against the env's labels
   uint64_t detector_states = 0, detector_truth = 0, detector_fp = 0, detector_fn = 0;
 };

@@ -44,6 +44,12 @@ struct EnvSpec {
   ActionSpec action;
   std::vector<InteractionPair> interactions;  // bit i of StepResult::interactions
   int max_episode_steps = 0;                  // 0: no time limit
+  // what evaluations report about a task: what a terminal step means ("the block reached the
+  // goal"; empty: not reported) and which step rewards are penalties (reward <= penalty_reward,
+  // "the block in a negative region or out of bounds"; empty penalty_means: none)
+  std::string done_means;
+  std::string penalty_means;
+  float penalty_reward = 0.0f;
 
   int state_dim() const;
   // index of the factor with this name, or -1

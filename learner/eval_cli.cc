@@ -95,8 +95,8 @@ class EvalRecorder {
 };
 
 // the result as one JSON line (--json) or as text
-void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::string& env, int level,
-               const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
+void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::string& env, const envs::EnvSpec& env_spec,
+               int level, const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
   nlohmann::json j = {{"run_dir", f.run_dir},
                       {"checkpoint", checkpoint},
                       {"env", env},
@@ -112,6 +112,14 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
                       {"explore", spec.is_task() ? f.explore : 0.0}};
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
+  const envs::EnvSpec& es = env_spec;
+  const bool task = spec.is_task();
+  j["done_fraction"] = task && !es.done_means.empty() && !r.returns.empty()
+                           ? nlohmann::json(double(r.episodes_done) / double(r.returns.size()))
+                           : nlohmann::json(nullptr);
+  j["penalty_fraction"] = task && !es.penalty_means.empty() && r.steps > 0
+                              ? nlohmann::json(double(r.penalty_steps) / double(r.steps))
+                              : nlohmann::json(nullptr);
   if (f.json) {
     std::cout << j.dump() << "\n";
     return;
@@ -121,9 +129,18 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
     std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes (task epsilon {})", r.return_mean, r.return_sd,
                              r.returns.size(), f.explore)
               << "\n";
-  std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r.success,
-                           r.goals_reached, r.goals_ended, r.steps)
-            << "\n";
+  if (task && !es.done_means.empty())
+    std::cout << fmt::format("  {} in {} of {} episodes ({:.1f}%)", es.done_means, r.episodes_done, r.returns.size(),
+                             100.0 * j["done_fraction"].get<double>())
+              << "\n";
+  if (task && !es.penalty_means.empty())
+    std::cout << fmt::format("  {}: {:.1f}% of {} env steps", es.penalty_means,
+                             100.0 * j["penalty_fraction"].get<double>(), r.steps)
+              << "\n";
+  if (!skill.is_task())  // a task over primitive actions has no goals below it
+    std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r.success,
+                             r.goals_reached, r.goals_ended, r.steps)
+              << "\n";
   if (skill.require_interaction)
     std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
                              100.0 * r.hit_rate, 100.0 * r.accuracy)
@@ -164,7 +181,7 @@ Status RunEval(const EvalFlags& f) {
 
   const policy::LevelSpec& spec = core.trainer(level)->spec();
   const policy::LevelSpec& skill = spec.is_task() && level > 1 ? core.trainer(level - 1)->spec() : spec;
-  PrintEval(f, *ckpt, (*env)->spec().name, level, spec, skill, *r);
+  PrintEval(f, *ckpt, (*env)->spec().name, (*env)->spec(), level, spec, skill, *r);
   return Status::Ok();
 }
 

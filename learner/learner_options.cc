@@ -5,19 +5,20 @@
 namespace coins {
 
 void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
-  v.String(p + "algorithm", algorithm, {"dqn", "ddpg"}, "dqn (discrete actions) | ddpg (continuous)");
+  v.String(p + "algorithm", algorithm, {"dqn", "ddpg", "sac"}, "dqn (discrete actions) | ddpg | sac (continuous)");
   v.FloatList(p + "hidden", hidden, "hidden layer sizes");
   v.Float(p + "lr", lr, 1e-7, 1, "learning rate");
   v.Int(p + "batch", batch, 1, 4096, "samples per update");
   v.Int(p + "n_step", n_step, 1, 100, "n-step returns");
   v.Float(p + "gamma", gamma, 0, 1, "discount");
   v.Int(p + "target_update", target_update, 1, 1 << 24, "dqn: updates between target copies");
-  v.Float(p + "tau", tau, 1e-6, 1, "ddpg: Polyak factor");
+  v.Float(p + "tau", tau, 1e-6, 1, "ddpg, sac: Polyak factor");
+  v.Float(p + "sac_alpha", sac_alpha, 1e-6, 100, "sac: initial temperature (tuned to entropy -action_dim)");
   v.Int(p + "atoms", atoms, 1, 1001, "dqn: distributional atoms (1: expected values)");
   v.Float(p + "v_min", v_min, -1e6, 1e6, "dqn: lowest return of the support");
   v.Float(p + "v_max", v_max, -1e6, 1e6, "dqn: highest return of the support");
   v.Bool(p + "dueling", dueling, "dqn: dueling heads");
-  v.Float(p + "explore", explore, 0, 1, "acting: dqn epsilon / ddpg noise std");
+  v.Float(p + "explore", explore, 0, 1, "acting: dqn epsilon / ddpg noise std / sac: > 0 samples");
   v.String(p + "her", her, {"none", "final", "future"}, "hindsight strategy");
   v.Float(p + "her_ratio", her_ratio, 0, 1, "fraction of samples relabelled");
   v.Bool(p + "prioritized", prioritized, "prioritised sampling");

@@ -17,18 +17,19 @@ namespace coins {
 
 // how one group of levels is trained and run
 struct LevelTrainOptions {
-  std::string algorithm = "dqn";  // dqn (discrete actions) | ddpg (continuous actions)
+  std::string algorithm = "dqn";  // dqn (discrete actions) | ddpg | sac (continuous actions)
   std::vector<double> hidden = {128, 128};
   double lr = 7e-4;
   int64_t batch = 64;
   int64_t n_step = 2;
   double gamma = 0.99;
   int64_t target_update = 1000;  // dqn: hard target copy every N updates
-  double tau = 0.005;            // ddpg: Polyak factor
+  double tau = 0.005;            // ddpg, sac: Polyak factor
+  double sac_alpha = 0.2;        // sac: initial temperature (then tuned to entropy -action_dim)
   int64_t atoms = 51;            // dqn: distributional when > 1
   double v_min = -30, v_max = 0;
   bool dueling = true;
-  double explore = 0.3;        // acting: dqn epsilon / ddpg noise std
+  double explore = 0.3;        // acting: dqn epsilon / ddpg noise std / sac: > 0 samples the policy
   std::string her = "future";  // hindsight: none | final | future
   double her_ratio = 0.5;
   bool prioritized = false;

@@ -62,6 +62,12 @@ void ChainAdapter::Tick(Clock::time_point now) {
                  machine_.state().note);
     cutter_.RequestCut();
   }
+  // the run's step budget spent: one more epoch holds everything trained on it
+  if (config_.run.steps > 0 && !budget_cut_ && machine_.state().env_steps >= uint64_t(config_.run.steps)) {
+    budget_cut_ = true;
+    spdlog::info("step budget of {} env steps spent: cutting a final epoch", config_.run.steps);
+    cutter_.RequestCut();
+  }
   Checkpoint(now, v);
   Persist();
   PublishCommand();

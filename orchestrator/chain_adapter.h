@@ -59,6 +59,7 @@ class ChainAdapter {
   std::optional<chain::Command> published_;  // the newest command written
   chain::ChainState pending_epoch_state_;    // the state at the cut of the pending epoch
   std::string checkpoint_note_;              // the last abandoned epoch, for ChainStatus
+  bool budget_cut_ = false;                  // the epoch at run.steps was asked for
   std::chrono::steady_clock::time_point next_status_;
 };
 

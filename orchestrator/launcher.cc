@@ -134,8 +134,9 @@ class Progress {
 };
 
 struct RunOutcome {
-  std::string failure;      // a child that could not be kept running
-  bool chain_done = false;  // ChainStatus.phase reached done
+  std::string failure;        // a child that could not be kept running
+  bool chain_done = false;    // ChainStatus.phase reached done
+  bool budget_spent = false;  // this host's actors finished run.steps and the shards hold their rows
 };
 
 // transitions the actors `ids` are due to publish (their share of the budget, or what their
@@ -189,7 +190,10 @@ RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemCon
       // every actor that finished published at least its share of run.steps (one transition per
       // env step and level stream), and its final report says how many
       auto [due, stored] = DueAndStored(view, c, roles.actor_ids);
-      if (stored >= due || now > drain_deadline) break;
+      if (stored >= due || now > drain_deadline) {
+        out.budget_spent = true;
+        break;
+      }
     }
     progress.Tick(view, sup, now);
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
@@ -197,17 +201,19 @@ RunOutcome WatchRun(Supervisor& sup, StatusCollector& collector, const SystemCon
   return out;
 }
 
-// the chain is done: its phase change cuts an epoch, in which the learner checkpoints the final
-// policy (what `coins eval` loads); waits for it, at most the checkpoint timeout
-void WaitForFinalEpoch(const SystemConfig& c) {
+// the chain is done, or the run's step budget is spent: either cuts an epoch (the phase change,
+// or the orchestrator seeing run.steps), in which the learner checkpoints the final policy (what
+// `coins eval` and `--resume` load); waits for it, at most the checkpoint timeout
+void WaitForFinalEpoch(const SystemConfig& c, bool chain_done) {
+  const uint64_t budget = chain_done ? 0 : uint64_t(c.run.steps);
   const auto end =
       std::chrono::steady_clock::now() + std::chrono::duration<double>(c.orchestrator.checkpoint_timeout_s + 2.0);
-  while (!FinalEpoch(c.run.dir) && std::chrono::steady_clock::now() < end && !StopRequested())
+  while (!FinalEpoch(c.run.dir, budget) && std::chrono::steady_clock::now() < end && !StopRequested())
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  if (auto e = FinalEpoch(c.run.dir))
+  if (auto e = FinalEpoch(c.run.dir, budget))
     std::cout << "coins run: final checkpoint epoch " << *e << " complete\n";
   else
-    std::cout << "coins run: no checkpoint epoch of the finished chain completed; the newest checkpoint is used\n";
+    std::cout << "coins run: no final checkpoint epoch completed; the newest checkpoint is used\n";
 }
 
 // the summary (printed and summary.json), learning curves, and the final GIF of a finished chain
@@ -291,6 +297,9 @@ void PrintFinalCounts(const StatusView& v, const std::vector<int64_t>& actors) {
                           : published > stored
                               ? fmt::format("{} published but not stored", published - stored)
                               : fmt::format("{} more stored than published (resumed or restarted)", stored - published);
+    const msg::ActorStats& a = it->second.sample;
+    if (a.env_errors() > 0) verdict += fmt::format("; {} env steps failed, their episodes ended", a.env_errors());
+    if (a.goals_clipped() > 0) verdict += fmt::format("; {} goals clipped to their goal space", a.goals_clipped());
     std::cout << fmt::format("coins run: actor-{}: {} transitions published, {} stored ({})\n", i, published, stored,
                              verdict);
   }
@@ -374,7 +383,8 @@ int RunLocal(const RunFlags& flags, const RunSeed& seed) {
   if (!metrics.ok()) std::cerr << "coins run: " << metrics.status().message() << "\n";
   Progress progress(c, flags.quiet, metrics.ok() ? std::optional<RunMetrics>(std::move(*metrics)) : std::nullopt);
   RunOutcome outcome = WatchRun(sup, **collector, c, plan.roles, progress);
-  if (outcome.chain_done && plan.roles.Has("orchestrator")) WaitForFinalEpoch(c);
+  if ((outcome.chain_done || outcome.budget_spent) && plan.roles.Has("orchestrator"))
+    WaitForFinalEpoch(c, outcome.chain_done);
   const std::string& failure = outcome.failure;
 
   if (!failure.empty())

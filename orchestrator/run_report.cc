@@ -273,7 +273,7 @@ std::string FormatSummary(const json& s) {
   return out;
 }
 
-std::optional<uint64_t> FinalEpoch(const std::string& run_dir) {
+std::optional<uint64_t> FinalEpoch(const std::string& run_dir, uint64_t budget_steps) {
   std::error_code ec;
   std::optional<uint64_t> newest;
   for (const auto& e : fs::directory_iterator(fs::path(run_dir) / "chain", ec)) {
@@ -283,7 +283,9 @@ std::optional<uint64_t> FinalEpoch(const std::string& run_dir) {
     json j = json::parse(in, nullptr, false);
     if (j.is_discarded() || !j.contains("state") || !j["state"].is_object()) continue;
     const json& s = j["state"];
-    if (s.value("phase", "") != "done" || !s.contains("epoch") || !s["epoch"].is_number_unsigned()) continue;
+    const bool final =
+        s.value("phase", "") == "done" || (budget_steps > 0 && s.value("env_steps", uint64_t(0)) >= budget_steps);
+    if (!final || !s.contains("epoch") || !s["epoch"].is_number_unsigned()) continue;
     newest = std::max(newest.value_or(0), s["epoch"].get<uint64_t>());
   }
   return newest;

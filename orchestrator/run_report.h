@@ -71,8 +71,9 @@ nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
 std::string FormatSummary(const nlohmann::json& summary);
 
 // the newest complete epoch cut after the chain was done (its chain-epoch-N.json holds phase
-// done): the learner's checkpoint of that epoch holds the final policy; nullopt when none yet
-std::optional<uint64_t> FinalEpoch(const std::string& run_dir);
+// done) or, with budget_steps > 0, at or after that many env steps: the learner's checkpoint of
+// that epoch holds the final policy; nullopt when none yet
+std::optional<uint64_t> FinalEpoch(const std::string& run_dir, uint64_t budget_steps = 0);
 
 // HOOK (final GIF): when `coins eval` exists (the `eval` subcommand of the coins binary at
 // coins_path), runs `coins eval RUN_DIR --gif RUN_DIR/final.gif` (bounded: 10 min) and returns

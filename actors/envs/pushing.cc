@@ -65,6 +65,9 @@ PushingEnv::PushingEnv(const mjModel* m, bool easy)
   spec_.action.high = {1, 1, 1};
   spec_.interactions = {{"Action", "Gripper"}, {"Gripper", "Block"}};
   spec_.max_episode_steps = horizon_;
+  spec_.done_means = "the block reached the goal";
+  spec_.penalty_means = "the block in a negative region or out of bounds";
+  spec_.penalty_reward = -2.0f;
 
   // model addresses
   gx_adr_ = m->jnt_qposadr[Id(m, mjOBJ_JOINT, "gx")];

@@ -16,13 +16,14 @@ void ToPrimitiveAction(const LevelSpec& level, const float* action, float* env_a
   }
 }
 
-void ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* action, const float* state,
+bool ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* action, const float* state,
                  float* child_goal) {
   if (parent.action_kind == ActionKind::kChildDiscrete) {
     const size_t k = std::min(child.goals.size() - 1, size_t(std::max(0.0f, action[0])));
     std::copy(child.goals[k].begin(), child.goals[k].end(), child_goal);
-    return;
+    return false;
   }
+  bool clipped = false;
   for (int i = 0; i < child.dim(); ++i) {
     const float a =
         parent.action_kind == ActionKind::kChildOffsets
@@ -30,8 +31,11 @@ void ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* a
             : action[std::min(i, parent.action_dim - 1)];
     const float lo = child.low[size_t(i)], hi = child.high[size_t(i)];
     const float now = state[child.offset + child.masked[size_t(i)]];
-    child_goal[i] = std::clamp(now + a * parent.child_ratio * (hi - lo), lo, hi);
+    const float want = now + a * parent.child_ratio * (hi - lo);
+    child_goal[i] = std::isfinite(want) ? std::clamp(want, lo, hi) : std::clamp(now, lo, hi);
+    clipped |= !(child_goal[i] == want);  // a non-finite goal (stays where it is) counts too
   }
+  return clipped;
 }
 
 void RandomGoal(const GoalSpace& goal, std::mt19937_64* rng, float* out) {

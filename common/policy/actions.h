@@ -14,8 +14,9 @@ void ToPrimitiveAction(const LevelSpec& level, const float* action, float* env_a
 
 // the child's goal (masked values, env units) chosen by `parent`'s action in `state`:
 // a discrete child goal by index; or child value + a * child_ratio * (high - low), with a the
-// continuous action or child_offsets[index], clipped to the child's bounds
-void ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* action, const float* state,
+// continuous action or child_offsets[index], clipped to the child's bounds. Returns whether a
+// feature was clipped (a goal outside the child's goal space, e.g. past the workspace's edge).
+bool ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* action, const float* state,
                  float* child_goal);
 
 // a uniformly random goal of the space: one of the discrete goals, or uniform within the bounds

@@ -68,6 +68,7 @@ bool LevelSpec::discrete_actions() const {
 
 int LevelSpec::network_outputs() const {
   if (algorithm == "ddpg") return action_dim;
+  if (algorithm == "sac") return 2 * action_dim;  // mean and log-std of each action
   const int k = atoms > 1 ? atoms : 1;
   return (dueling ? 1 + num_actions : num_actions) * k;
 }
@@ -105,9 +106,10 @@ Status LevelSpec::Validate() const {
     return bad("child_offsets must have num_actions entries");
   if (action_dim < 1) return bad("action_dim must be >= 1");
   if (timeout < 1 || decision_period < 0) return bad("timeout must be >= 1 and decision_period >= 0");
-  if (algorithm != "dqn" && algorithm != "ddpg") return bad("algorithm must be dqn or ddpg, not '" + algorithm + "'");
+  if (algorithm != "dqn" && algorithm != "ddpg" && algorithm != "sac")
+    return bad("algorithm must be dqn, ddpg or sac, not '" + algorithm + "'");
   if (algorithm == "dqn" && !discrete_actions()) return bad("dqn needs discrete actions");
-  if (algorithm == "ddpg" && discrete_actions()) return bad("ddpg needs continuous actions");
+  if (algorithm != "dqn" && discrete_actions()) return bad(algorithm + " needs continuous actions");
   if (hidden.empty()) return bad("hidden needs at least one layer");
   for (int h : hidden)
     if (h <= 0) return bad("hidden sizes must be positive");

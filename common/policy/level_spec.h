@@ -83,7 +83,7 @@ struct LevelSpec {
   bool require_interaction = false;       // success needs the link interaction
   std::string detector;                   // weights name of the link's detector ("" when none is needed)
   // network
-  std::string algorithm = "dqn";         // dqn | ddpg
+  std::string algorithm = "dqn";         // dqn | ddpg | sac
   std::vector<int> hidden = {128, 128};  // with a pair network: its per-instance point layers
   // a pair network (common/nn/qnet.h) over the instances of pair_factor, which sit at
   // observation rows pair.offset ... (not enabled: an Mlp over the whole observation)
@@ -93,7 +93,7 @@ struct LevelSpec {
   bool dueling = true;  // dqn
   int atoms = 51;       // dqn: distributional when > 1
   float v_min = -30.0f, v_max = 0.0f;
-  float explore = 0.1f;  // acting: dqn epsilon, ddpg Gaussian noise sigma
+  float explore = 0.1f;  // acting: dqn epsilon, ddpg Gaussian noise sigma; sac: > 0 samples the policy
 
   bool is_task() const { return goal.kind == GoalKind::kNone; }
   bool discrete_actions() const;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 
 #include "common/nn/heads.h"
 #include "common/nn/serialize.h"
@@ -92,12 +93,30 @@ void PolicyNet::Act(const float* obs, float explore, std::mt19937_64* rng, float
     action[0] = float(best);
     return;
   }
+  if (spec_.algorithm == "sac") return ActSquashedGaussian(obs, explore > 0.0f, rng, action);
   const Eigen::MatrixXf& mu = net_.Forward(Eigen::Map<const Eigen::MatrixXf>(obs, spec_.obs_dim(), 1));
   std::normal_distribution<float> noise(0.0f, explore > 0.0f ? explore : 1.0f);
   for (int i = 0; i < spec_.action_dim; ++i) {
     float a = mu(i, 0);
     if (explore > 0.0f) a += noise(*rng);
     action[i] = std::clamp(a, -1.0f, 1.0f);
+  }
+}
+
+// the squashed Gaussian of nn::SquashedGaussian, one action at a time without allocating
+void PolicyNet::ActSquashedGaussian(const float* obs, bool sample, std::mt19937_64* rng, float* action) {
+  const int d = spec_.action_dim;
+  const Eigen::MatrixXf& raw = net_.Forward(Eigen::Map<const Eigen::MatrixXf>(obs, spec_.obs_dim(), 1));
+  const nn::SquashedGaussian head;
+  std::normal_distribution<float> unit(0.0f, 1.0f);
+  for (int i = 0; i < d; ++i) {
+    float u = raw(i, 0);
+    if (sample) {
+      const float log_std =
+          head.log_std_min + 0.5f * (head.log_std_max - head.log_std_min) * (std::tanh(raw(d + i, 0)) + 1.0f);
+      u += std::exp(log_std) * unit(*rng);
+    }
+    action[i] = std::clamp(std::tanh(u), -1.0f, 1.0f);
   }
 }
 

@@ -4,7 +4,8 @@
 // carries) into the level's observation (common/policy/level_spec.h). PolicyNet is the acting
 // network of a level: for dqn the online Q-network (QNet: an Mlp or a pair network; dueling and distributional heads as
 // learner/rl/dqn.h builds them, so their weight blobs are interchangeable), for ddpg the
-// deterministic actor (an Mlp with tanh outputs, as learner/rl/ddpg.h). After the first call Act
+// deterministic actor (an Mlp with tanh outputs, as learner/rl/ddpg.h), for sac the squashed
+// Gaussian actor (an Mlp with 2 x action_dim outputs, as learner/rl/sac.h). After the first call Act
 // allocates nothing. A PolicyNet is used by one thread at a time.
 #pragma once
 
@@ -45,13 +46,15 @@ class PolicyNet {
   Status Load(std::span<const uint8_t> blob, const std::string& source);
 
   // one observation -> action. Discrete: action[0] = the index (epsilon-greedy with `explore`);
-  // continuous: action_dim values in [-1, 1] (Gaussian noise of std `explore`, clipped).
+  // continuous: action_dim values in [-1, 1]; ddpg adds Gaussian noise of std `explore`
+  // (clipped), sac samples its policy when `explore` > 0 and acts with tanh(mean) otherwise.
   void Act(const float* obs, float explore, std::mt19937_64* rng, float* action);
   // action values of the last discrete Act (num_actions)
   const Eigen::VectorXf& last_q() const { return q_; }
 
  private:
   void QValues(const float* obs);
+  void ActSquashedGaussian(const float* obs, bool sample, std::mt19937_64* rng, float* action);
 
   LevelSpec spec_;
   nn::QNet net_;

@@ -1,6 +1,8 @@
 // Level specs, observations and actions of the hierarchy, with numbers worked out by hand.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <nlohmann/json.hpp>
 
 #include "common/nn/serialize.h"
@@ -84,7 +86,7 @@ TEST(Actions, ChildGoalsFromOffsetsDiscreteAndContinuous) {
   child.high = {50};
   const float state[4] = {0, 40, 0, 0};
   float goal[1], action[1] = {2};
-  ToChildGoal(parent, child, action, state, goal);
+  EXPECT_FALSE(ToChildGoal(parent, child, action, state, goal));
   EXPECT_FLOAT_EQ(goal[0], 50.0f);  // 40 + 1 * 0.25 * 40 = 50
   action[0] = 0;
   ToChildGoal(parent, child, action, state, goal);
@@ -92,8 +94,11 @@ TEST(Actions, ChildGoalsFromOffsetsDiscreteAndContinuous) {
   parent.action_kind = ActionKind::kChildContinuous;
   action[0] = -1;
   const float low_state[4] = {0, 12, 0, 0};
-  ToChildGoal(parent, child, action, low_state, goal);
-  EXPECT_FLOAT_EQ(goal[0], 10.0f);  // clipped to the child's bounds
+  EXPECT_TRUE(ToChildGoal(parent, child, action, low_state, goal));
+  EXPECT_FLOAT_EQ(goal[0], 10.0f);  // clipped to the child's bounds (and said so)
+  action[0] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_TRUE(ToChildGoal(parent, child, action, state, goal));
+  EXPECT_FLOAT_EQ(goal[0], 40.0f);  // a non-finite action leaves the goal where the child is
   child.kind = GoalKind::kDiscrete;
   child.goals = {{-1}, {2}};
   parent.action_kind = ActionKind::kChildDiscrete;
@@ -126,6 +131,44 @@ TEST(PolicyNet, GreedyActionIsTheArgmaxAndBlobsRoundTrip) {
   b->Act(obs, 0.0f, &rng, act_b);
   EXPECT_EQ(act_a[0], act_b[0]);
   EXPECT_TRUE(a->last_q().isApprox(b->last_q()));
+}
+
+// sac levels act with tanh of the policy's mean when greedy and sample it (spread by its own
+// log-std, not by `explore`) otherwise
+TEST(PolicyNet, SacActsWithTheSquashedMeanOrSamplesItsPolicy) {
+  LevelSpec s = BallLike();
+  s.action_kind = ActionKind::kChildContinuous;
+  s.num_actions = 0;
+  s.child_offsets.clear();
+  s.action_dim = 1;
+  s.algorithm = "sac";
+  s.atoms = 1;
+  auto net = PolicyNet::Create(s, 5);
+  ASSERT_TRUE(net.ok()) << net.status().message();
+  EXPECT_EQ(s.network_outputs(), 2);
+  nn::QNet same(ActingNetworkOptions(s), 5);
+  const float obs[6] = {0.1f, -0.2f, 0.3f, 0.4f, -0.5f, 0.6f};
+  const Eigen::MatrixXf raw = same.Forward(Eigen::Map<const Eigen::MatrixXf>(obs, 6, 1));
+  std::mt19937_64 rng(2);
+  float greedy[1];
+  net->Act(obs, 0.0f, &rng, greedy);
+  EXPECT_FLOAT_EQ(greedy[0], std::tanh(raw(0, 0)));
+  double sum = 0.0, sq = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    float a[1];
+    net->Act(obs, 0.01f, &rng, a);
+    ASSERT_TRUE(a[0] >= -1.0f && a[0] <= 1.0f);
+    sum += std::atanh(std::clamp(double(a[0]), -0.999999, 0.999999));
+    sq += std::pow(std::atanh(std::clamp(double(a[0]), -0.999999, 0.999999)) - raw(0, 0), 2);
+  }
+  // u = mean + std * noise with log_std = -5 + 7 (tanh(raw[1]) + 1) / 2
+  const double std_expected = std::exp(-5.0 + 7.0 * (std::tanh(raw(1, 0)) + 1.0) / 2.0);
+  EXPECT_NEAR(sum / 2000.0, raw(0, 0), 4.0 * std_expected / std::sqrt(2000.0) + 1e-3);
+  EXPECT_NEAR(std::sqrt(sq / 2000.0), std_expected, 0.1 * std_expected);
+  s.action_kind = ActionKind::kChildOffsets;
+  s.num_actions = 3;
+  s.child_offsets = {-1, 0, 1};
+  EXPECT_NE(s.Validate().message().find("sac needs continuous actions"), std::string::npos);
 }
 
 TEST(Weights, ChecksumAndVersionAreChecked) {

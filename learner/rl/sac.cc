@@ -56,7 +56,7 @@ void Sac::Act(std::span<const float> obs, bool deterministic, std::mt19937_64* r
   for (int i = 0; i < ad; ++i) action[size_t(i)] = a(i, 0);
 }
 
-SacStats Sac::Update(const Batch& batch) {
+SacStats Sac::Update(const Batch& batch, Eigen::MatrixXf* priorities) {
   const int bs = batch.size(), ad = options_.action_dim;
   const float inv_b = 1.0f / float(bs);
   const float alpha = this->alpha();
@@ -75,6 +75,7 @@ SacStats Sac::Update(const Batch& batch) {
   Concat(batch.obs, batch.actions);
   for (auto [q, adam] : {std::pair{&q1_, &q1_adam_}, std::pair{&q2_, &q2_adam_}}) {
     d_ = q->Forward(sa_) - y_;
+    if (q == &q1_) prio_ = d_.cwiseAbs();
     stats.critic_loss += 0.5f * (d_.array().square() * batch.weights.array()).sum() * inv_b;
     d_.array() *= batch.weights.array() * inv_b;
     q->Backward(d_);
@@ -95,7 +96,32 @@ SacStats Sac::Update(const Batch& batch) {
 
   nn::SoftUpdate(q1_.params(), options_.tau, &q1_target_.params());
   nn::SoftUpdate(q2_.params(), options_.tau, &q2_target_.params());
+  if (priorities) *priorities = prio_;
+  ++updates_;
   return stats;
+}
+
+AlgorithmState Sac::ExportState() const {
+  AlgorithmState st;
+  st.sets = {actor_.params(), q1_.params(), q2_.params(), q1_target_.params(), q2_target_.params(), log_alpha_};
+  AppendAdam(actor_adam_, "actor_adam", &st);
+  AppendAdam(q1_adam_, "q1_adam", &st);
+  AppendAdam(q2_adam_, "q2_adam", &st);
+  AppendAdam(alpha_adam_, "alpha_adam", &st);
+  st.counters.push_back(updates_);
+  return st;
+}
+
+Status Sac::ImportState(const AlgorithmState& st) {
+  size_t next = 0, counter = 0;
+  for (nn::Mlp* net : {&actor_, &q1_, &q2_, &q1_target_, &q2_target_})
+    COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &net->params()).WithContext("sac"));
+  COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &log_alpha_).WithContext("sac temperature"));
+  for (nn::Adam* adam : {&actor_adam_, &q1_adam_, &q2_adam_, &alpha_adam_})
+    COINS_RETURN_IF_ERROR(RestoreAdam(st, &next, &counter, adam).WithContext("sac"));
+  if (counter >= st.counters.size()) return Errorf("sac: state has no update count");
+  updates_ = st.counters[counter];
+  return Status::Ok();
 }
 
 float Sac::ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& noise, float* entropy) {
@@ -122,7 +148,9 @@ float Sac::ActorLossAndGrad(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& n
 
 Result<SacStats> Sac::Train(BatchSource* source) {
   COINS_RETURN_IF_ERROR(source->Sample(options_.batch_size, &batch_).WithContext("sac"));
-  return Update(batch_);
+  SacStats stats = Update(batch_, &prio_);
+  if (!batch_.keys.empty()) source->UpdatePriorities(batch_.keys, {prio_.data(), size_t(prio_.size())});
+  return stats;
 }
 
 }  // namespace coins::rl

@@ -18,6 +18,7 @@
 #include "common/nn/adam.h"
 #include "common/nn/heads.h"
 #include "common/nn/mlp.h"
+#include "learner/rl/algorithm_state.h"
 #include "learner/rl/batch.h"
 
 namespace coins::rl {
@@ -53,7 +54,8 @@ class Sac {
 
   // one action in [-1, 1]^action_dim: tanh(mean) when deterministic, else a policy sample
   void Act(std::span<const float> obs, bool deterministic, std::mt19937_64* rng, std::span<float> action);
-  SacStats Update(const Batch& batch);
+  // per-sample |TD error| of the first critic (1 x B) into priorities when asked
+  SacStats Update(const Batch& batch, Eigen::MatrixXf* priorities = nullptr);
   // the actor loss mean(alpha log pi(a|s) - min_i Q_i(s, a)) at a = tanh(mean + std * noise)
   // (noise: action_dim x B) and its gradient in actor().params().grads; no step is taken.
   // Writes -mean log pi into entropy when not null.
@@ -62,7 +64,13 @@ class Sac {
 
   float alpha() const { return std::exp(log_alpha_.values[0]); }
   nn::Mlp& actor() { return actor_; }
+  const nn::Mlp& actor() const { return actor_; }
   const SacOptions& options() const { return options_; }
+  int64_t updates() const { return updates_; }
+  // the whole training state (actor, both critics and their targets, the temperature, all
+  // four Adams, the update count); the sampling generator restarts from the seed
+  AlgorithmState ExportState() const;
+  Status ImportState(const AlgorithmState& state);
 
  private:
   void Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act);  // -> sa_
@@ -73,9 +81,10 @@ class Sac {
   nn::Adam actor_adam_, q1_adam_, q2_adam_, alpha_adam_;
   nn::ParamSet log_alpha_;
   float target_entropy_ = 0.0f;
+  int64_t updates_ = 0;
   std::mt19937_64 rng_;
   Batch batch_;
-  Eigen::MatrixXf sa_, raw_, noise_, actor_noise_, act_, logp_, y_, q1v_, q2v_, d_, da_, dlogp_, draw_;
+  Eigen::MatrixXf sa_, raw_, noise_, actor_noise_, act_, logp_, y_, q1v_, q2v_, d_, da_, dlogp_, draw_, prio_;
 };
 
 }  // namespace coins::rl

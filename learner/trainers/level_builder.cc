@@ -57,6 +57,9 @@ void SetNetwork(const LevelTrainOptions& o, LevelSpec* s) {
   s->child_ratio = float(o.child_ratio);
 }
 
+// continuous actions train with sac when the level's options ask for it, else with ddpg
+std::string ContinuousAlgorithm(const LevelTrainOptions& o) { return o.algorithm == "sac" ? "sac" : "ddpg"; }
+
 // actions that are goals of `child`
 Status SetChildActions(const policy::LevelSpec& child, const LevelTrainOptions& o, LevelSpec* s) {
   if (child.goal.kind == GoalKind::kDiscrete) {
@@ -74,18 +77,18 @@ Status SetChildActions(const policy::LevelSpec& child, const LevelTrainOptions& 
   }
   s->action_kind = ActionKind::kChildContinuous;
   s->action_dim = child.goal.dim();
-  s->algorithm = "ddpg";
+  s->algorithm = ContinuousAlgorithm(o);
   return Status::Ok();
 }
 
-void SetPrimitiveActions(const envs::EnvSpec& env, LevelSpec* s) {
+void SetPrimitiveActions(const envs::EnvSpec& env, const LevelTrainOptions& o, LevelSpec* s) {
   const envs::ActionSpec& a = env.action;
   s->action_kind = a.discrete ? ActionKind::kPrimitiveDiscrete : ActionKind::kPrimitiveContinuous;
   s->num_actions = a.discrete ? a.n : 0;
   s->action_dim = a.discrete ? 1 : a.dim;
   s->action_low = a.low;
   s->action_high = a.high;
-  s->algorithm = a.discrete ? "dqn" : "ddpg";
+  s->algorithm = a.discrete ? "dqn" : ContinuousAlgorithm(o);
   s->decision_period = 1;
 }
 
@@ -152,7 +155,7 @@ Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& 
   AddFactor(env, ft, &s);
   AddRelative(env, fs, ft, &s);
   if (level == 1) {
-    SetPrimitiveActions(env, &s);
+    SetPrimitiveActions(env, o, &s);
   } else {
     if (!child) return Errorf("level {} needs the spec of level {}", level, level - 1);
     COINS_RETURN_IF_ERROR(SetChildActions(*child, o, &s));
@@ -193,7 +196,7 @@ Result<LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTr
   }
   for (size_t a = 0; a < single.size(); ++a)
     for (size_t b = a + 1; b < single.size(); ++b) AddRelative(env, single[a], single[b], &s);
-  SetPrimitiveActions(env, &s);
+  SetPrimitiveActions(env, o, &s);
   if (s.algorithm != o.algorithm)
     return Errorf("the task over primitive actions of {} needs learner.task_algorithm {} (it is {})", env.name,
                   s.algorithm, o.algorithm);

@@ -4,6 +4,7 @@
 #include "common/policy/policy_net.h"
 #include "learner/rl/ddpg.h"
 #include "learner/rl/dqn.h"
+#include "learner/rl/sac.h"
 
 namespace coins {
 
@@ -67,6 +68,19 @@ Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::Level
     d.seed = seed;
     COINS_RETURN_IF_ERROR(d.Validate().WithContext(spec.name));
     t->dqn_ = std::make_unique<rl::Dqn>(d);
+  } else if (spec.algorithm == "sac") {
+    rl::SacOptions d;
+    d.obs_dim = spec.obs_dim();
+    d.action_dim = spec.action_dim;
+    d.hidden = spec.hidden;
+    d.activation = spec.activation;
+    d.actor_lr = d.critic_lr = d.alpha_lr = float(o.lr);
+    d.tau = float(o.tau);
+    d.init_alpha = float(o.sac_alpha);
+    d.batch_size = int(o.batch);
+    d.seed = seed;
+    COINS_RETURN_IF_ERROR(d.Validate().WithContext(spec.name));
+    t->sac_ = std::make_unique<rl::Sac>(d);
   } else {
     rl::DdpgOptions d;
     d.obs_dim = spec.obs_dim();
@@ -84,21 +98,25 @@ Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::Level
   // the acting network of the spec must be what the algorithm trains
   auto net = policy::PolicyNet::Create(spec);
   if (!net.ok()) return net.status();
-  if (!net->params().SameShape(t->dqn_ ? t->dqn_->online().params() : t->ddpg_->actor().params()))
+  if (!net->params().SameShape(t->acting_params()))
     return Errorf("{}: the trained network does not match the acting network", spec.name);
   return t;
 }
 
-int64_t PolicyTrainer::updates() const { return dqn_ ? dqn_->updates() : ddpg_->updates(); }
+int64_t PolicyTrainer::updates() const { return dqn_ ? dqn_->updates() : sac_ ? sac_->updates() : ddpg_->updates(); }
 
-std::vector<uint8_t> PolicyTrainer::ActingBlob() const {
-  return nn::ToBlob(dqn_ ? dqn_->online().params() : ddpg_->actor().params());
+const nn::ParamSet& PolicyTrainer::acting_params() const {
+  return dqn_ ? dqn_->online().params() : sac_ ? sac_->actor().params() : ddpg_->actor().params();
 }
 
-rl::AlgorithmState PolicyTrainer::ExportState() const { return dqn_ ? dqn_->ExportState() : ddpg_->ExportState(); }
+std::vector<uint8_t> PolicyTrainer::ActingBlob() const { return nn::ToBlob(acting_params()); }
+
+rl::AlgorithmState PolicyTrainer::ExportState() const {
+  return dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();
+}
 
 Status PolicyTrainer::ImportState(const rl::AlgorithmState& state) {
-  return dqn_ ? dqn_->ImportState(state) : ddpg_->ImportState(state);
+  return dqn_ ? dqn_->ImportState(state) : sac_ ? sac_->ImportState(state) : ddpg_->ImportState(state);
 }
 
 void PolicyTrainer::Observations(const SampleColumns& c, bool next, Eigen::MatrixXf* obs) {
@@ -134,6 +152,9 @@ Result<TrainStep> PolicyTrainer::Update(SampleSource* source) {
     const rl::DqnStats s = dqn_->Update(batch_, &priorities_);
     step.loss = s.loss;
     step.mean_q = s.mean_q;
+  } else if (sac_) {
+    const rl::SacStats s = sac_->Update(batch_, &priorities_);
+    step.loss = s.critic_loss;
   } else {
     const rl::DdpgStats s = ddpg_->Update(batch_, &priorities_);
     step.loss = s.critic_loss;

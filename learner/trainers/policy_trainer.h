@@ -3,7 +3,7 @@
 // It asks replay for the level's rows (stream and skill level), only the features its
 // observation reads, with the level's goal rewards computed and hindsight relabelling done at
 // sample time by the shards (idl/sampling.idl); builds observations exactly as actors do
-// (common/policy/policy_net.h); and takes one dqn or ddpg step per Update. The acting network's
+// (common/policy/policy_net.h); and takes one dqn, ddpg or sac step per Update. The acting network's
 // weights (ActingBlob) load into a PolicyNet of the same spec. One thread at a time.
 #pragma once
 
@@ -23,6 +23,7 @@ namespace coins {
 namespace rl {
 class Dqn;
 class Ddpg;
+class Sac;
 }  // namespace rl
 
 struct TrainStep {
@@ -55,12 +56,14 @@ class PolicyTrainer {
  private:
   PolicyTrainer(policy::LevelSpec spec, LevelTrainOptions options);
   void ToBatch(const SampleColumns& c);
+  const nn::ParamSet& acting_params() const;
 
   policy::LevelSpec spec_;
   LevelTrainOptions options_;
   SampleSpec sample_;
   std::unique_ptr<rl::Dqn> dqn_;
   std::unique_ptr<rl::Ddpg> ddpg_;
+  std::unique_ptr<rl::Sac> sac_;
   SampleColumns columns_;
   rl::Batch batch_;
   Eigen::MatrixXf goals_, priorities_;

@@ -72,13 +72,15 @@ TEST(LevelBuilder, BreakoutChainLevels) {
 TEST(PolicyTrainer, ActingWeightsLoadIntoTheActorsNetwork) {
   Breakout b;
   LearnerOptions o;
-  for (const bool ddpg : {false, true}) {
+  for (const std::string algorithm : {"dqn", "ddpg", "sac"}) {
     LevelTrainOptions g = o.skill;
-    if (ddpg) g.child_offsets.clear();  // continuous child goals: ddpg
+    if (algorithm != "dqn") g.child_offsets.clear();  // continuous child goals: ddpg, or sac when asked
+    if (algorithm == "sac") g.algorithm = "sac";
     auto paddle = BuildSkillSpec(b.spec, b.paddle, 1, nullptr, o.primitive);
     auto spec = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, g);
     ASSERT_TRUE(spec.ok()) << spec.status().message();
-    EXPECT_EQ(spec->algorithm, ddpg ? "ddpg" : "dqn");
+    EXPECT_EQ(spec->algorithm, algorithm);
+    EXPECT_EQ(spec->network_outputs(), algorithm == "sac" ? 2 : algorithm == "ddpg" ? 1 : 7 * 51 + 51);
     auto trainer = PolicyTrainer::Create(*spec, g, 3);
     ASSERT_TRUE(trainer.ok()) << trainer.status().message();
     auto net = policy::PolicyNet::Create(*spec);

@@ -24,19 +24,6 @@ using namespace coins::testing;
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
-// the newest complete learner checkpoint's state.json (null when none)
-nlohmann::json NewestLearnerCheckpoint(const fs::path& run) {
-  int64_t best = -1;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(run / "checkpoints", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("learner-epoch-", 0) != 0 || !fs::exists(e.path() / "state.json")) continue;
-    best = std::max<int64_t>(best, std::stoll(name.substr(14)));
-  }
-  if (best < 0) return nullptr;
-  return ReadJson(run / "checkpoints" / ("learner-epoch-" + std::to_string(best)) / "state.json");
-}
-
 // the checksum the level-1 trainer's weights had in a checkpoint, when it trained at all
 std::optional<uint32_t> PaddleChecksum(const nlohmann::json& state) {
   if (!state.is_object() || state.value("total_updates", 0) == 0 || !state["trainers"].is_array()) return std::nullopt;

@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -102,6 +103,19 @@ inline pid_t PidOf(const std::string& binary, const std::filesystem::path& run) 
 inline nlohmann::json ChainState(const std::filesystem::path& run) {
   auto j = ReadJson(run / "chain" / "chain.json");
   return j.is_object() && j["state"].is_object() ? j["state"] : nlohmann::json::object();
+}
+
+// the newest complete learner checkpoint's state.json (null when none)
+inline nlohmann::json NewestLearnerCheckpoint(const std::filesystem::path& run) {
+  int64_t best = -1;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(run / "checkpoints", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("learner-epoch-", 0) != 0 || !std::filesystem::exists(e.path() / "state.json")) continue;
+    best = std::max<int64_t>(best, std::stoll(name.substr(14)));
+  }
+  if (best < 0) return nullptr;
+  return ReadJson(run / "checkpoints" / ("learner-epoch-" + std::to_string(best)) / "state.json");
 }
 
 }  // namespace coins::testing

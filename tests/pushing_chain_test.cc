@@ -18,15 +18,7 @@ namespace fs = std::filesystem;
 
 // the learner updates in the newest complete checkpoint while it trains level 1 (0 when none)
 int64_t GripperUpdates(const fs::path& run) {
-  int64_t best = -1;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(run / "checkpoints", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("learner-epoch-", 0) != 0 || !fs::exists(e.path() / "state.json")) continue;
-    best = std::max<int64_t>(best, std::stoll(name.substr(14)));
-  }
-  if (best < 0) return 0;
-  const auto state = ReadJson(run / "checkpoints" / ("learner-epoch-" + std::to_string(best)) / "state.json");
+  const nlohmann::json state = NewestLearnerCheckpoint(run);
   if (!state.is_object() || state.value("train_level", 0) != 1) return 0;
   return state.value("total_updates", int64_t(0));
 }

@@ -108,6 +108,21 @@ TEST(Granger, SparseSolveFindsTheLaggedCause) {
   EXPECT_FALSE(LinearGrangerTest(spec, data, "Z", {"B"}, GrangerOptions()).ok());
 }
 
+// the mask test measures positions in one unit per target (the largest half range of its x, y,
+// z), other features in half their own range
+TEST(PairLayout, MaskUnitsShareOneScaleAcrossPositions) {
+  PairLayout L;
+  L.target_feature_names = {"x", "y", "z", "vx"};
+  L.target_low = {-0.25f, -0.25f, 0.0f, -2.0f};
+  L.target_high = {0.25f, 0.25f, 0.1f, 2.0f};
+  EXPECT_FLOAT_EQ(L.mask_unit(0), 0.25f);
+  EXPECT_FLOAT_EQ(L.mask_unit(1), 0.25f);
+  EXPECT_FLOAT_EQ(L.mask_unit(2), 0.25f);  // not 0.05: 1 mm of height is 1 mm of x
+  EXPECT_FLOAT_EQ(L.mask_unit(3), 2.0f);
+  L.target_feature_names = {};  // without names every feature is its own unit
+  EXPECT_FLOAT_EQ(L.mask_unit(2), 0.05f);
+}
+
 TEST(Options, ValidateNamesTheBadValue) {
   DetectorOptions o;
   EXPECT_TRUE(o.Validate().ok());

@@ -240,8 +240,7 @@ PairScores PairDetector::Score(const TransitionSet& data) {
       for (int q = 0; q < L.output_dim(); ++q) {
         if (L.dims[q] == k) pred += mean(q, i) * L.scale[q];
       }
-      const float half = 0.5f * (L.target_high[k] - L.target_low[k]);
-      dev[k] += std::abs(s2[base + k] - pred) / half;
+      dev[k] += std::abs(s2[base + k] - pred) / L.mask_unit(k);
     }
   }
   double max_dev = 0.0;

@@ -6,6 +6,19 @@
 
 namespace coins::detector {
 
+float PairLayout::mask_unit(int k) const {
+  auto half = [&](size_t i) { return 0.5f * (target_high[i] - target_low[i]); };
+  auto is_position = [&](size_t i) {
+    return i < target_feature_names.size() &&
+           (target_feature_names[i] == "x" || target_feature_names[i] == "y" || target_feature_names[i] == "z");
+  };
+  if (!is_position(size_t(k))) return half(size_t(k));
+  float unit = 0.0f;
+  for (size_t i = 0; i < target_high.size(); ++i)
+    if (is_position(i)) unit = std::max(unit, half(i));
+  return unit;
+}
+
 int PairLayout::source_input_dim() const {
   if (source_is_action) return action_input_dim();
   return source_features + (source_action ? action_input_dim() : 0);

@@ -65,6 +65,12 @@ struct PairLayout {
     const int ib = positions[p].second;
     return has_proximity() ? close_distance : 0.5f * (target_high[ib] - target_low[ib]);
   }
+  // the unit of target feature k in the mask test (eq. 10): half its range, except that the
+  // position features of the target (x, y, z) share the largest of their half ranges, so that a
+  // millimetre counts the same along every axis (a pushed block's height range is a fifth of its
+  // x range: per-axis units made the millimetre it sinks under a pressing fingertip outweigh the
+  // centimetres it slides, and the block skill was asked for heights)
+  float mask_unit(int k) const;
 };
 
 // errors on unknown factor names, a multi-instance source, or source == target

@@ -32,6 +32,8 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.FloatList(p + "child_offsets", child_offsets, "continuous 1-d child goals as discrete offsets (dqn)");
   v.Float(p + "child_ratio", child_ratio, 1e-6, 10, "child goal offsets scale, fraction of the range");
   v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
+  v.String(p + "interaction_ends_goal", interaction_ends_goal, {"rare", "never"},
+           "rare: a rare link's interaction ends its goal (a bounce) | never: reached or timed out (a push)");
   if (p == "task_")
     v.FloatList(p + "pair_hidden", pair_hidden, "per-block layers of a pair network over the blocks ([]: the Mlp)");
 }

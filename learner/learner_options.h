@@ -41,6 +41,10 @@ struct LevelTrainOptions {
   std::vector<double> child_offsets;  // continuous 1-d child goals as discrete offsets (dqn); empty: ddpg
   double child_ratio = 0.15;          // child goal = child value + offset * ratio * range
   int64_t publish_every = 50;         // updates between weight publications
+  // a goal of a link whose interactions are rare ends at any detected interaction ("rare": a
+  // bounce decides the ball's angle, the attempt is over), or only when reached or timed out
+  // ("never": a push is one of many that bring the block to its goal)
+  std::string interaction_ends_goal = "rare";
   // the task only: a pair network over the blocks (a multi-instance factor) with these
   // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp
   std::vector<double> pair_hidden;

@@ -161,7 +161,8 @@ Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& 
     COINS_RETURN_IF_ERROR(SetChildActions(*child, o, &s));
   }
   if (SparseLink(link)) {
-    s.terminate_on_interaction = s.require_interaction = true;
+    s.require_interaction = true;
+    s.terminate_on_interaction = o.interaction_ends_goal == "rare";
     s.detector = detector::DetectorWeightsName(link.source(), link.target());
   }
   COINS_RETURN_IF_ERROR(s.Validate());

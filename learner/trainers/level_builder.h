@@ -6,12 +6,12 @@
 // its goal; its goal space is the target's masked features (discrete goals, or continuous
 // bounds with the group's epsilon). Its actions are primitive (level 1), or goals of the level
 // below: that level's discrete goals, or its continuous goals as offsets (child_offsets, dqn)
-// or as continuous actions (ddpg). A link whose interactions are rare events (fewer than one per
-// ten transitions in the scoring data: a bounce, a push) ends goals at any detected interaction
-// and needs one for success; a link whose source acts on the target most of the time (the
-// primitive action moving the paddle: about one step in two) ends goals on reaching them.
-// The task observes every factor but Action, Done and Reward, relative positions of the top
-// link, and acts with the top skill's goals.
+// or as continuous actions (ddpg, sac). A link whose interactions are rare events (fewer than one
+// per ten transitions in the scoring data: a bounce, a push) needs one for success and, unless its
+// group's interaction_ends_goal is "never" (pushing), ends goals at any detected interaction; a link whose source acts
+// on the target most of the time (the primitive action moving the paddle: about one step in two) ends goals on reaching
+// them. The task observes every factor but Action, Done and Reward, relative positions of the top link, and acts with
+// the top skill's goals.
 #pragma once
 
 #include "common/env_spec.h"

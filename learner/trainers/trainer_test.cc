@@ -52,6 +52,12 @@ TEST(LevelBuilder, BreakoutChainLevels) {
     EXPECT_NEAR(ball->child_offsets[size_t(i)] * ball->child_ratio * 68.0f, 2.0f * float(i - 3), 0.2f);
   EXPECT_EQ(ball->goal.goals.size(), 4u);
   EXPECT_TRUE(ball->terminate_on_interaction && ball->require_interaction);  // a bounce is rare
+  LevelTrainOptions sustained = o.skill;  // pushing's block: a push does not end the goal
+  sustained.interaction_ends_goal = "never";
+  auto pushed = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, sustained);
+  ASSERT_TRUE(pushed.ok()) << pushed.status().message();
+  EXPECT_TRUE(pushed->require_interaction);
+  EXPECT_FALSE(pushed->terminate_on_interaction);
   EXPECT_EQ(ball->detector, "detector/Paddle->Ball");
 
   auto task = BuildTaskSpec(b.spec, *ball, o.task);

@@ -95,11 +95,11 @@ class EvalRecorder {
 };
 
 // the result as one JSON line (--json) or as text
-void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::string& env, const envs::EnvSpec& env_spec,
-               int level, const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
+void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::EnvSpec& es, int level,
+               const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
   nlohmann::json j = {{"run_dir", f.run_dir},
                       {"checkpoint", checkpoint},
-                      {"env", env},
+                      {"env", es.name},
                       {"level", level},
                       {"policy", spec.name},
                       {"episodes", r.returns.size()},
@@ -112,7 +112,6 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
                       {"explore", spec.is_task() ? f.explore : 0.0}};
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
-  const envs::EnvSpec& es = env_spec;
   const bool task = spec.is_task();
   j["done_fraction"] = task && !es.done_means.empty() && !r.returns.empty()
                            ? nlohmann::json(double(r.episodes_done) / double(r.returns.size()))
@@ -124,7 +123,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const std::str
     std::cout << j.dump() << "\n";
     return;
   }
-  std::cout << fmt::format("{} on {} ({}):", spec.name, env, checkpoint) << "\n";
+  std::cout << fmt::format("{} on {} ({}):", spec.name, es.name, checkpoint) << "\n";
   if (spec.is_task())
     std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes (task epsilon {})", r.return_mean, r.return_sd,
                              r.returns.size(), f.explore)
@@ -181,7 +180,7 @@ Status RunEval(const EvalFlags& f) {
 
   const policy::LevelSpec& spec = core.trainer(level)->spec();
   const policy::LevelSpec& skill = spec.is_task() && level > 1 ? core.trainer(level - 1)->spec() : spec;
-  PrintEval(f, *ckpt, (*env)->spec().name, (*env)->spec(), level, spec, skill, *r);
+  PrintEval(f, *ckpt, (*env)->spec(), level, spec, skill, *r);
   return Status::Ok();
 }
 

@@ -35,7 +35,9 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.String(p + "interaction_ends_goal", interaction_ends_goal, {"rare", "never"},
            "rare: a rare link's interaction ends its goal (a bounce) | never: reached or timed out (a push)");
   if (p == "task_")
-    v.FloatList(p + "pair_hidden", pair_hidden, "per-block layers of a pair network over the blocks ([]: the Mlp)");
+    v.FloatList(p + "pair_hidden", pair_hidden,
+                "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "
+                "obstacle regions ([]: the Mlp)");
 }
 
 Status LevelTrainOptions::Validate(const std::string& p) const {

@@ -8,10 +8,16 @@
 // same repetition; the figure is the ratio. Each figure is the median over repetitions.
 // Unless --no-paddle, the Breakout paddle skill is trained from several seeds and the medians
 // of env steps and wall time to 95% greedy success are reported.
+// Pushing's task level: sac updates/s (actor, twin critics, targets, temperature; batch 128) on
+// an observation shaped like the task's (57 rows, 15 obstacle regions of 3 at row 6) for the
+// Mlp 128x3 of deploy/configs/pushing.yaml (the baseline) and pair networks over the regions of
+// several widths up to the paper's 128-128-128-256-1024; each as a ratio to the Mlp, measured
+// alternately in the same repetitions.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -23,6 +29,7 @@
 #include "common/nn/mlp.h"
 #include "common/nn/pairnet.h"
 #include "learner/rl/paddle_skill.h"
+#include "learner/rl/sac.h"
 
 namespace {
 
@@ -149,6 +156,60 @@ Samples BenchPairNet(int reps, double min_seconds) {
   return Measure(update, gemm, reps, min_seconds);
 }
 
+// one sac update on a fixed random batch shaped like pushing's task level
+struct SacTaskBench {
+  coins::rl::Sac sac;
+  coins::rl::Batch batch;
+  static constexpr int kObs = 57, kAction = 2, kBatch = 128;
+  explicit SacTaskBench(std::vector<int> hidden, bool pair) : sac(Options(std::move(hidden), pair)) {
+    batch.obs = Eigen::MatrixXf::Random(kObs, kBatch);
+    batch.next_obs = Eigen::MatrixXf::Random(kObs, kBatch);
+    batch.actions = Eigen::MatrixXf::Random(kAction, kBatch);
+    batch.rewards = Eigen::MatrixXf::Random(1, kBatch);
+    batch.discounts = Eigen::MatrixXf::Constant(1, kBatch, 0.99f);
+    batch.weights = Eigen::MatrixXf::Ones(1, kBatch);
+  }
+  static coins::rl::SacOptions Options(std::vector<int> hidden, bool pair) {
+    coins::rl::SacOptions o;
+    o.obs_dim = kObs;
+    o.action_dim = kAction;
+    o.hidden = std::move(hidden);
+    o.batch_size = kBatch;
+    if (pair) o.split = {6, 15, 3, -1};
+    return o;
+  }
+  double UpdatesPerSecond(double min_seconds) {
+    return 1.0 / TimePerCall([&] { sac.Update(batch); }, min_seconds);
+  }
+};
+
+void BenchPushingTask(coins::Figures* f, int reps, double min_seconds) {
+  struct Variant {
+    std::string name;
+    std::vector<int> hidden;
+  };
+  const std::vector<Variant> pairs = {
+      {"pair_64x2", {64, 64}}, {"pair_128x3", {128, 128, 128}}, {"pair_paper", {128, 128, 128, 256, 1024}}};
+  SacTaskBench mlp({128, 128, 128}, false);
+  std::vector<std::unique_ptr<SacTaskBench>> nets;
+  for (const Variant& v : pairs) nets.push_back(std::make_unique<SacTaskBench>(v.hidden, true));
+  std::vector<double> base;
+  std::vector<std::vector<double>> rate(pairs.size()), ratio(pairs.size());
+  for (int r = 0; r < reps; ++r) {
+    const double m = mlp.UpdatesPerSecond(min_seconds);
+    base.push_back(m);
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      rate[i].push_back(nets[i]->UpdatesPerSecond(min_seconds));
+      ratio[i].push_back(rate[i].back() / m);
+    }
+  }
+  f->AddMedian("pushing_task_sac_mlp_128x3_updates_per_s", base, "updates/s");
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    f->AddMedian("pushing_task_sac_" + pairs[i].name + "_updates_per_s", rate[i], "updates/s");
+    f->AddMedian("pushing_task_sac_" + pairs[i].name + "_vs_mlp", ratio[i], "ratio");
+  }
+}
+
 void BenchPaddle(coins::Figures* f, int seeds) {
   std::vector<double> steps, seconds, success;
   for (int seed = 1; seed <= seeds; ++seed) {
@@ -209,6 +270,7 @@ int main(int argc, char** argv) {
   coins::Figures figures;
   Record(&figures, "mlp", BenchMlp(reps, min_seconds));
   Record(&figures, "pairnet", BenchPairNet(reps, min_seconds));
+  BenchPushingTask(&figures, reps, min_seconds);
   if (paddle) BenchPaddle(&figures, seeds);
   figures.Print(json);
   return 0;

@@ -90,7 +90,7 @@ TEST(MlpGrad, AccumulateAddsGradients) {
   EXPECT_TRUE(net.params().grads.isApprox(2.0f * once, 1e-6f));
 }
 
-TEST(PairNetGrad, ParamsMatchFiniteDifferences) {
+TEST(PairNetGrad, ParamsAndSourceMatchFiniteDifferences) {
   PairNetOptions o;
   o.source_dim = 3;
   o.instance_dim = 4;
@@ -108,9 +108,13 @@ TEST(PairNetGrad, ParamsMatchFiniteDifferences) {
   mask.col(2).setZero();  // a sample with no instance at all
   auto loss = [&] { return Dot(net.Forward(src, inst, mask), r); };
   loss();
-  net.Backward(r);
+  Eigen::MatrixXf ds = net.Backward(r, /*source_grad=*/true);
   Eigen::VectorXf g = net.params().grads;
   EXPECT_LT(RelError(net.params().values.data(), net.params().size(), g, loss, 1e-2f), 1e-2);
+  ASSERT_EQ(ds.rows(), 3);
+  EXPECT_EQ(ds.col(2).norm(), 0.0f);  // no instance, no path from the source
+  Eigen::VectorXf gs = Eigen::Map<Eigen::VectorXf>(ds.data(), ds.size());
+  EXPECT_LT(RelError(src.data(), src.size(), gs, loss, 1e-2f), 1e-2);
 }
 
 TEST(HeadGrad, GaussianNll) {

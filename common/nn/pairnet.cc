@@ -104,7 +104,8 @@ const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>&
   return out_;
 }
 
-void PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool accumulate) {
+const Eigen::MatrixXf& PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool source_grad,
+                                         bool accumulate) {
   const int n = options_.max_instances;
   const Eigen::Index batch = out_.cols();
   assert(dout.rows() == out_.rows() && dout.cols() == batch);
@@ -154,6 +155,25 @@ void PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool accum
       ActivationBackward(options_.hidden, acts_[l], deltas_[l - 1]);
     }
   }
+  source_grad_.resize(0, 0);
+  if (source_grad) SourceGrad();
+  return source_grad_;
+}
+
+// every point holds s_a in its head and s_a[0:k] in the relative tail: both feed the source's
+// gradient, summed over the instances (an absent one got no gradient from the pool)
+void PairNet::SourceGrad() {
+  const int n = options_.max_instances, ds = options_.source_dim, k = options_.relative_dim;
+  const Eigen::Index batch = out_.cols();
+  point_grad_.resize(acts_[0].rows(), acts_[0].cols());
+  point_grad_.noalias() = params_.Value(0).transpose() * deltas_[0];
+  source_grad_.setZero(ds, batch);
+  for (Eigen::Index b = 0; b < batch; ++b)
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Index c = b * n + i;
+      if (ds > 0) source_grad_.col(b) += point_grad_.col(c).head(ds);
+      if (k > 0) source_grad_.col(b).head(k) += point_grad_.col(c).tail(k);
+    }
 }
 
 int64_t PairNet::MacsPerSample() const {

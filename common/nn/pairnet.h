@@ -11,7 +11,8 @@
 // Parameters are laid out exactly like an Mlp with sizes
 // {point_input_dim, point_sizes..., output_dim}, so with one present instance and k = 0 the
 // pair-net equals that Mlp on [s_a; s_b] (tested). Like Mlp, workspaces are reused across
-// calls and Backward refers to the most recent Forward. Input gradients are not provided.
+// calls and Backward refers to the most recent Forward. Backward can return the gradient with
+// respect to the source (a critic's action sits there); the instances' gradient is not provided.
 #pragma once
 
 #include <cstdint>
@@ -51,8 +52,10 @@ class PairNet {
   const Eigen::MatrixXf& Forward(const Eigen::Ref<const Eigen::MatrixXf>& source,
                                  const Eigen::Ref<const Eigen::MatrixXf>& instances,
                                  const Eigen::Ref<const Eigen::MatrixXf>& mask);
-  // dout: output_dim x B. Writes (or adds, when accumulate) parameter gradients.
-  void Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool accumulate = false);
+  // dout: output_dim x B. Writes (or adds, when accumulate) parameter gradients. Returns
+  // d loss / d source (source_dim x B) when source_grad, else an empty matrix.
+  const Eigen::MatrixXf& Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool source_grad = false,
+                                  bool accumulate = false);
 
   // multiply-adds per sample with all N instances present
   int64_t MacsPerSample() const;
@@ -62,6 +65,7 @@ class PairNet {
 
  private:
   int num_point_layers() const { return int(options_.point_sizes.size()); }
+  void SourceGrad();  // source_grad_ from the deltas of the last Backward
 
   PairNetOptions options_;
   ParamSet params_;
@@ -72,7 +76,8 @@ class PairNet {
   Eigen::MatrixXf out_;                  // output_dim x B
   Eigen::MatrixXf out_delta_;
   Eigen::MatrixXf pooled_grad_;
-  std::vector<uint8_t> present_;  // N x B flags of the last Forward
+  Eigen::MatrixXf point_grad_, source_grad_;  // d loss / d points, d loss / d source
+  std::vector<uint8_t> present_;              // N x B flags of the last Forward
 };
 
 }  // namespace coins::nn

@@ -13,8 +13,9 @@ Status QNetOptions::Validate() const {
   if (s.instance_dim <= 0 || s.offset < 0 || s.offset + s.instances * s.instance_dim > obs_dim)
     return Errorf("network: {} instances of {} rows at row {} do not fit an observation of {}", s.instances,
                   s.instance_dim, s.offset, obs_dim);
-  if (s.presence < 0 || s.presence >= s.instance_dim)
-    return Errorf("network: presence row {} outside an instance of {}", s.presence, s.instance_dim);
+  if (s.presence < -1 || s.presence >= s.instance_dim)
+    return Errorf("network: presence row {} outside an instance of {} (-1: always present)", s.presence,
+                  s.instance_dim);
   return Status::Ok();
 }
 
@@ -46,18 +47,24 @@ const Eigen::MatrixXf& QNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>& ob
   source_.resize(obs.rows() - rows, B);
   source_.topRows(s.offset) = obs.topRows(s.offset);
   source_.bottomRows(tail) = obs.bottomRows(tail);
-  mask_.resize(s.instances, B);
-  for (Eigen::Index b = 0; b < B; ++b)
-    for (int n = 0; n < s.instances; ++n)
-      mask_(n, b) = std::abs(obs(s.offset + Eigen::Index(n) * s.instance_dim + s.presence, b)) > 0.5f ? 1.0f : 0.0f;
+  mask_.setOnes(s.instances, B);
+  if (s.presence >= 0)
+    for (Eigen::Index b = 0; b < B; ++b)
+      for (int n = 0; n < s.instances; ++n)
+        mask_(n, b) = std::abs(obs(s.offset + Eigen::Index(n) * s.instance_dim + s.presence, b)) > 0.5f ? 1.0f : 0.0f;
   return pair_.Forward(source_, obs.middleRows(s.offset, rows), mask_);
 }
 
-void QNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout) {
-  if (options_.split.enabled())
-    pair_.Backward(dout);
-  else
-    mlp_.Backward(dout);
+const Eigen::MatrixXf& QNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>& dout, bool input_grad) {
+  if (!options_.split.enabled()) return mlp_.Backward(dout, input_grad);
+  const Eigen::MatrixXf& ds = pair_.Backward(dout, input_grad);
+  if (!input_grad) return ds;
+  const InstanceSplit& s = options_.split;
+  const Eigen::Index rows = Eigen::Index(s.instances) * s.instance_dim, tail = options_.obs_dim - s.offset - rows;
+  input_grad_.setZero(options_.obs_dim, ds.cols());
+  input_grad_.topRows(s.offset) = ds.topRows(s.offset);
+  input_grad_.bottomRows(tail) = ds.bottomRows(tail);
+  return input_grad_;
 }
 
 }  // namespace coins::nn

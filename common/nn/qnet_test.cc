@@ -43,9 +43,27 @@ TEST(QNet, ASplitObservationIsThePairNetOfItsParts) {
   const Eigen::MatrixXf b = pair.Forward(source, obs.middleRows(2, 12), mask);
   EXPECT_TRUE(a.isApprox(b, 1e-6f)) << (a - b).norm();
   const Eigen::MatrixXf dout = Eigen::MatrixXf::Random(5, 4);
-  net.Backward(dout);
-  pair.Backward(dout);
+  const Eigen::MatrixXf dobs = net.Backward(dout, /*input_grad=*/true);
+  const Eigen::MatrixXf dsource = pair.Backward(dout, /*source_grad=*/true);
   EXPECT_TRUE(net.params().grads.isApprox(pair.params().grads, 1e-5f));
+  // the observation's gradient: the source's rows where they came from, the instances' rows 0
+  ASSERT_EQ(dobs.rows(), 15);
+  EXPECT_TRUE(dobs.topRows(2).isApprox(dsource.topRows(2), 1e-5f));
+  EXPECT_TRUE(dobs.bottomRows(1).isApprox(dsource.bottomRows(1), 1e-5f));
+  EXPECT_EQ(dobs.middleRows(2, 12).norm(), 0.0f);
+  EXPECT_GT(dobs.bottomRows(1).norm(), 0.0f);
+}
+
+TEST(QNet, WithoutAPresenceRowEveryInstanceIsPooled) {
+  QNetOptions o = Split();
+  o.split.presence = -1;
+  ASSERT_TRUE(o.Validate().ok());
+  QNet net(o, 4);
+  Eigen::MatrixXf obs = Observations(1);
+  obs(2 + 4 * 1 + 3, 0) = 0.0f;  // with a presence row this instance would be gone
+  const Eigen::MatrixXf before = net.Forward(obs);
+  obs.block(2 + 4 * 1, 0, 4, 1).setConstant(9.0f);
+  EXPECT_FALSE(net.Forward(obs).isApprox(before, 1e-3f));  // it is pooled: a large value shows
 }
 
 TEST(QNet, AnAbsentInstanceChangesNothingAndTheOrderOfInstancesNeither) {
@@ -72,6 +90,8 @@ TEST(QNet, WithoutASplitItIsAnMlpAndBadSplitsAreRefused) {
   EXPECT_FALSE(bad.Validate().ok());
   bad = Split();
   bad.split.presence = 4;
+  EXPECT_FALSE(bad.Validate().ok());
+  bad.split.presence = -2;
   EXPECT_FALSE(bad.Validate().ok());
 }
 

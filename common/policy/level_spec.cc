@@ -113,7 +113,8 @@ Status LevelSpec::Validate() const {
   if (hidden.empty()) return bad("hidden needs at least one layer");
   for (int h : hidden)
     if (h <= 0) return bad("hidden sizes must be positive");
-  if (pair.enabled() && algorithm != "dqn") return bad("a pair network needs algorithm dqn");
+  if (pair.enabled() && algorithm != "dqn" && algorithm != "sac")
+    return bad("a pair network needs algorithm dqn or sac");
   if (pair.enabled())
     if (Status st = nn::QNetOptions{obs_dim(), hidden, 1, activation, activation, pair}.Validate(); !st.ok())
       return bad(st.message());

@@ -80,19 +80,28 @@ TEST_P(DqnLossGrad, MatchesFiniteDifferences) {
 
 INSTANTIATE_TEST_SUITE_P(Variants, DqnLossGrad, ::testing::Values(true, false));
 
-TEST(SacLossGrad, ActorMatchesFiniteDifferences) {
+// the actor's gradient flows through the critics' action input: Mlps, and pair networks over
+// 3 instances of 2 rows (every instance present) where the action joins the source part
+class SacLossGrad : public ::testing::TestWithParam<bool> {};
+
+TEST_P(SacLossGrad, ActorMatchesFiniteDifferences) {
+  const bool pair = GetParam();
   SacOptions o;
-  o.obs_dim = 5;
+  o.obs_dim = pair ? 9 : 5;
   o.action_dim = 2;
   o.hidden = {16, 16};
   o.activation = nn::Activation::kTanh;
+  if (pair) o.split = {2, 3, 2, -1};
+  ASSERT_TRUE(o.Validate().ok()) << o.Validate().message();
   Sac sac(o);
-  Eigen::MatrixXf obs = Random(5, 8, 1), noise = Random(2, 8, 2);
+  Eigen::MatrixXf obs = Random(o.obs_dim, 8, 1), noise = Random(2, 8, 2);
   auto loss = [&] { return double(sac.ActorLossAndGrad(obs, noise)); };
   loss();
   Eigen::VectorXf g = sac.actor().params().grads;
   EXPECT_LT(RelError(&sac.actor().params().values, g, loss, 1e-2f), 2e-2);
 }
+
+INSTANTIATE_TEST_SUITE_P(Networks, SacLossGrad, ::testing::Values(false, true));
 
 TEST(DdpgLossGrad, ActorMatchesFiniteDifferences) {
   DdpgOptions o;

@@ -22,16 +22,23 @@ Status SacOptions::Validate() const {
   if (!(tau > 0.0f && tau <= 1.0f)) return Errorf("sac: tau {} not in (0, 1]", tau);
   if (!(init_alpha > 0.0f)) return Errorf("sac: init_alpha {} must be > 0", init_alpha);
   if (batch_size <= 0) return Errorf("sac: batch_size {} must be > 0", batch_size);
+  if (hidden.empty()) return Errorf("sac: at least one hidden layer");
+  if (split.enabled())
+    if (Status st = nn::QNetOptions{obs_dim, hidden, 1, activation, activation, split}.Validate(); !st.ok())
+      return st.WithContext("sac");
   return Status::Ok();
+}
+
+nn::QNetOptions Sac::Network(int in, int out) const {
+  return {in, options_.hidden, out, options_.activation, nn::Activation::kIdentity, options_.split};
 }
 
 Sac::Sac(SacOptions options) : options_(std::move(options)), rng_(options_.seed ^ 0x5ac) {
   assert(options_.Validate().ok());
   const int od = options_.obs_dim, ad = options_.action_dim;
-  auto sizes = [&](int in, int out) { return nn::LayerSizes(in, options_.hidden, out); };
-  actor_ = nn::Mlp({sizes(od, 2 * ad), options_.activation, nn::Activation::kIdentity}, options_.seed);
-  q1_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity}, options_.seed + 1);
-  q2_ = nn::Mlp({sizes(od + ad, 1), options_.activation, nn::Activation::kIdentity}, options_.seed + 2);
+  actor_ = nn::QNet(Network(od, 2 * ad), options_.seed);
+  q1_ = nn::QNet(Network(od + ad, 1), options_.seed + 1);
+  q2_ = nn::QNet(Network(od + ad, 1), options_.seed + 2);
   q1_target_ = q1_;
   q2_target_ = q2_;
   const float clip = options_.grad_clip;
@@ -114,7 +121,7 @@ AlgorithmState Sac::ExportState() const {
 
 Status Sac::ImportState(const AlgorithmState& st) {
   size_t next = 0, counter = 0;
-  for (nn::Mlp* net : {&actor_, &q1_, &q2_, &q1_target_, &q2_target_})
+  for (nn::QNet* net : {&actor_, &q1_, &q2_, &q1_target_, &q2_target_})
     COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &net->params()).WithContext("sac"));
   COINS_RETURN_IF_ERROR(RestoreParams(st, &next, &log_alpha_).WithContext("sac temperature"));
   for (nn::Adam* adam : {&actor_adam_, &q1_adam_, &q2_adam_, &alpha_adam_})

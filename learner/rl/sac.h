@@ -1,8 +1,10 @@
 // Sac: soft actor-critic with twin critics, target critics and automatic temperature, over
 // continuous actions in [-1, 1]^action_dim (callers scale to their bounds).
 //
-// Actor: Mlp obs_dim -> hidden... -> 2 * action_dim, read by nn::SquashedGaussian.
-// Critics: two Mlps [obs; action] -> 1, with Polyak-averaged targets (tau).
+// Actor: obs_dim -> hidden... -> 2 * action_dim, read by nn::SquashedGaussian.
+// Critics: two networks [obs; action] -> 1, with Polyak-averaged targets (tau).
+// Every network is an nn::QNet: an Mlp, or with a split a pair network over the instances of one
+// multi-instance factor (the pushing obstacles); the critics' action joins the source part.
 // Temperature: log alpha learned so that the policy entropy tracks target_entropy
 // (default -action_dim) when auto_alpha, else fixed at init_alpha.
 #pragma once
@@ -18,6 +20,7 @@
 #include "common/nn/adam.h"
 #include "common/nn/heads.h"
 #include "common/nn/mlp.h"
+#include "common/nn/qnet.h"
 #include "learner/rl/algorithm_state.h"
 #include "learner/rl/batch.h"
 
@@ -27,6 +30,7 @@ struct SacOptions {
   int obs_dim = 0;
   int action_dim = 0;
   std::vector<int> hidden = {256, 256};  // gripper skill size; the block skill uses 256x4-128
+  nn::InstanceSplit split;               // a pair network's instances in obs (none: Mlps)
   nn::Activation activation = nn::Activation::kRelu;
   float actor_lr = 2e-4f;  // block skill lr 2e-4
   float critic_lr = 2e-4f;
@@ -63,8 +67,8 @@ class Sac {
   Result<SacStats> Train(BatchSource* source);
 
   float alpha() const { return std::exp(log_alpha_.values[0]); }
-  nn::Mlp& actor() { return actor_; }
-  const nn::Mlp& actor() const { return actor_; }
+  nn::QNet& actor() { return actor_; }
+  const nn::QNet& actor() const { return actor_; }
   const SacOptions& options() const { return options_; }
   int64_t updates() const { return updates_; }
   // the whole training state (actor, both critics and their targets, the temperature, all
@@ -77,7 +81,9 @@ class Sac {
 
   SacOptions options_;
   nn::SquashedGaussian head_;
-  nn::Mlp actor_, q1_, q2_, q1_target_, q2_target_;
+  nn::QNetOptions Network(int in, int out) const;
+
+  nn::QNet actor_, q1_, q2_, q1_target_, q2_target_;
   nn::Adam actor_adam_, q1_adam_, q2_adam_, alpha_adam_;
   nn::ParamSet log_alpha_;
   float target_entropy_ = 0.0f;

@@ -93,7 +93,8 @@ void SetPrimitiveActions(const envs::EnvSpec& env, const LevelTrainOptions& o, L
 }
 
 // every factor but Action, Done and Reward; with pair_hidden, a pair network over the first
-// multi-instance factor (its instances are contiguous in the observation; presence: attr)
+// multi-instance factor (its instances are contiguous in the observation; presence: attr, or
+// every instance present when the class has no attr, like the pushing obstacles)
 void AddStateFactors(const envs::EnvSpec& env, const LevelTrainOptions& o, LevelSpec* s) {
   for (int f = 0; f < int(env.factors.size()); ++f) {
     const envs::FactorSpec& fs = env.factors[size_t(f)];
@@ -102,7 +103,7 @@ void AddStateFactors(const envs::EnvSpec& env, const LevelTrainOptions& o, Level
       const auto attr = std::find(fs.feature_names.begin(), fs.feature_names.end(), "attr");
       s->pair_factor = fs.name;
       s->pair = {int(s->obs_index.size()), fs.instances, fs.features,
-                 attr == fs.feature_names.end() ? 0 : int(attr - fs.feature_names.begin())};
+                 attr == fs.feature_names.end() ? -1 : int(attr - fs.feature_names.begin())};
       s->hidden.assign(o.pair_hidden.begin(), o.pair_hidden.end());
     }
     AddFactor(env, f, s);

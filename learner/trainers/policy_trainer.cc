@@ -73,6 +73,7 @@ Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::Level
     d.obs_dim = spec.obs_dim();
     d.action_dim = spec.action_dim;
     d.hidden = spec.hidden;
+    d.split = spec.pair;
     d.activation = spec.activation;
     d.actor_lr = d.critic_lr = d.alpha_lr = float(o.lr);
     d.tau = float(o.tau);

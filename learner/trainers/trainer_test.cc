@@ -144,5 +144,52 @@ TEST(LevelBuilder, TaskPairNetworkOverTheBlocks) {
   }
 }
 
+// pushing's task (sac over relative block goals) and its vanilla baseline (sac on primitive
+// actions) with learner.task_pair_hidden: a pair network over the 15 obstacle regions, every
+// region present (the class has no attr); actors load what the trainer learns, and the state
+// round-trips
+TEST(LevelBuilder, PushingTaskPairNetworkOverTheObstacles) {
+  auto env = envs::MakeEnv("pushing");
+  ASSERT_TRUE(env.ok());
+  const envs::EnvSpec& spec = (*env)->spec();
+  LearnerOptions o;
+  o.skill.algorithm = o.task.algorithm = "sac";
+  o.skill.child_offsets.clear();
+  o.task.pair_hidden = {16, 16};
+  const msg::LinkSpec gripper =
+      Link("Action", "Gripper", {1, 1, 1}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f, 0.02f, 0.2f}, 0.9);
+  const msg::LinkSpec block = Link("Gripper", "Block", {1, 1, 0}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f}, 0.01);
+  auto g = BuildSkillSpec(spec, gripper, 1, nullptr, o.primitive);
+  ASSERT_TRUE(g.ok()) << g.status().message();
+  auto b = BuildSkillSpec(spec, block, 2, &*g, o.skill);
+  ASSERT_TRUE(b.ok()) << b.status().message();
+  for (const bool vanilla : {false, true}) {
+    auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, *b, o.task);
+    ASSERT_TRUE(task.ok()) << task.status().message();
+    EXPECT_EQ(task->algorithm, "sac");
+    EXPECT_EQ(task->pair_factor, "Obstacle");
+    EXPECT_EQ(task->pair.instances, 15);
+    EXPECT_EQ(task->pair.instance_dim, 3);
+    EXPECT_EQ(task->pair.presence, -1);
+    EXPECT_EQ(task->action_dim, vanilla ? 3 : 2);  // primitive displacements, or block x, y goals
+    auto trainer = PolicyTrainer::Create(*task, o.task, 5);
+    ASSERT_TRUE(trainer.ok()) << trainer.status().message();
+    auto net = policy::PolicyNet::Create(*task);
+    ASSERT_TRUE(net.ok()) << net.status().message();
+    ASSERT_TRUE(net->Load((*trainer)->ActingBlob(), "acting").ok());
+    EXPECT_EQ(nn::ToBlob(net->params()), (*trainer)->ActingBlob());
+    auto other = PolicyTrainer::Create(*task, o.task, 6);
+    ASSERT_TRUE((*other)->ImportState((*trainer)->ExportState()).ok());
+    EXPECT_EQ((*other)->ActingBlob(), (*trainer)->ActingBlob());
+    // the greedy action moves when one obstacle region moves (the pool sees every region)
+    std::vector<float> obs(size_t(task->obs_dim()), 0.1f), a(size_t(task->action_dim)), a2 = a;
+    std::mt19937_64 rng(1);
+    net->Act(obs.data(), 0.0f, &rng, a.data());
+    obs[size_t(task->pair.offset + 3 * 7)] = 3.0f;
+    net->Act(obs.data(), 0.0f, &rng, a2.data());
+    EXPECT_NE(a, a2);
+  }
+}
+
 }  // namespace
 }  // namespace coins

@@ -1,6 +1,7 @@
 #include "actors/evaluate.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "actors/actor.h"
@@ -8,6 +9,10 @@
 namespace coins {
 
 namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
 class DiscardRows final : public RowSink {
  public:
@@ -45,10 +50,15 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
     double ret = 0;
     bool over = false;
     for (int64_t t = 0; t < o.max_steps && !over; ++t) {
+      const auto t0 = Clock::now();
       runner.Decide(state, action);
       envs::StepResult sr;
+      const auto t1 = Clock::now();
       COINS_RETURN_IF_ERROR(env.Step(action, next, &sr).WithContext("evaluate"));
+      const auto t2 = Clock::now();
       runner.Observe(state, action, next, sr.reward, sr.done || sr.truncated, sr.truncated, sr.interactions, &rows);
+      r.control_seconds += Seconds(t0, Clock::now());
+      r.env_seconds += Seconds(t1, t2);
       if (on_step) on_step({ep, state, action, next, &sr});
       ret += sr.reward;
       ++r.steps;

@@ -41,6 +41,9 @@ struct EvalResult {
   int64_t steps = 0;
   int64_t episodes_done = 0;  // task: episodes the env ended as terminal (EnvSpec::done_means)
   int64_t penalty_steps = 0;  // task: steps whose reward was a penalty (EnvSpec::penalty_means)
+  // wall seconds of the control steps (the hierarchy's decisions, env.Step, the detector and
+  // goal bookkeeping; not the recorder), and of env.Step alone within them
+  double control_seconds = 0, env_seconds = 0;
 };
 
 // one step of an evaluation, for recorders (rollout files, pictures)

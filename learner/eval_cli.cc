@@ -109,6 +109,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                       {"goals", r.goals_ended},
                       {"success", r.success},
                       {"steps", r.steps},
+                      {"steps_per_s", r.control_seconds > 0 ? r.steps / r.control_seconds : 0.0},
+                      {"env_steps_per_s", r.env_seconds > 0 ? r.steps / r.env_seconds : 0.0},
                       {"explore", spec.is_task() ? f.explore : 0.0}};
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
@@ -143,6 +145,12 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
   if (skill.require_interaction)
     std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
                              100.0 * r.hit_rate, 100.0 * r.accuracy)
+              << "\n";
+  if (r.control_seconds > 0 && r.env_seconds > 0)
+    std::cout << fmt::format(
+                     "  speed: {:.0f} control steps/s with every level acting (one thread), the env's step "
+                     "alone {:.0f}/s",
+                     j["steps_per_s"].get<double>(), j["env_steps_per_s"].get<double>())
               << "\n";
 }
 

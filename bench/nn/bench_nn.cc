@@ -8,11 +8,11 @@
 // same repetition; the figure is the ratio. Each figure is the median over repetitions.
 // Unless --no-paddle, the Breakout paddle skill is trained from several seeds and the medians
 // of env steps and wall time to 95% greedy success are reported.
-// Pushing's task level: sac updates/s (actor, twin critics, targets, temperature; batch 128) on
-// an observation shaped like the task's (57 rows, 15 obstacle regions of 3 at row 6) for the
-// Mlp 128x3 of deploy/configs/pushing.yaml (the baseline) and pair networks over the regions of
-// several widths up to the paper's 128-128-128-256-1024; each as a ratio to the Mlp, measured
-// alternately in the same repetitions.
+// Pushing's sac levels: updates/s (actor, twin critics, targets, temperature; batch 128) at the
+// shapes of the task (57 rows, 15 obstacle regions of 3 at row 6) and of the block skill, for the
+// Mlp 128x3 of deploy/configs/pushing.yaml (the baseline) against pair networks over the regions
+// up to the paper's 128-128-128-256-1024, and the paper's 256x4-128 block skill; each as a ratio
+// to the baseline, measured alternately in the same repetitions.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -156,26 +156,27 @@ Samples BenchPairNet(int reps, double min_seconds) {
   return Measure(update, gemm, reps, min_seconds);
 }
 
-// one sac update on a fixed random batch shaped like pushing's task level
-struct SacTaskBench {
+// one sac update on a fixed random batch of a level's shape
+struct SacBench {
   coins::rl::Sac sac;
   coins::rl::Batch batch;
-  static constexpr int kObs = 57, kAction = 2, kBatch = 128;
-  explicit SacTaskBench(std::vector<int> hidden, bool pair) : sac(Options(std::move(hidden), pair)) {
-    batch.obs = Eigen::MatrixXf::Random(kObs, kBatch);
-    batch.next_obs = Eigen::MatrixXf::Random(kObs, kBatch);
-    batch.actions = Eigen::MatrixXf::Random(kAction, kBatch);
-    batch.rewards = Eigen::MatrixXf::Random(1, kBatch);
-    batch.discounts = Eigen::MatrixXf::Constant(1, kBatch, 0.99f);
-    batch.weights = Eigen::MatrixXf::Ones(1, kBatch);
+  SacBench(int obs, int action, int batch_size, std::vector<int> hidden, coins::nn::InstanceSplit split)
+      : sac(Options(obs, action, batch_size, std::move(hidden), split)) {
+    batch.obs = Eigen::MatrixXf::Random(obs, batch_size);
+    batch.next_obs = Eigen::MatrixXf::Random(obs, batch_size);
+    batch.actions = Eigen::MatrixXf::Random(action, batch_size);
+    batch.rewards = Eigen::MatrixXf::Random(1, batch_size);
+    batch.discounts = Eigen::MatrixXf::Constant(1, batch_size, 0.99f);
+    batch.weights = Eigen::MatrixXf::Ones(1, batch_size);
   }
-  static coins::rl::SacOptions Options(std::vector<int> hidden, bool pair) {
+  static coins::rl::SacOptions Options(int obs, int action, int batch_size, std::vector<int> hidden,
+                                       coins::nn::InstanceSplit split) {
     coins::rl::SacOptions o;
-    o.obs_dim = kObs;
-    o.action_dim = kAction;
+    o.obs_dim = obs;
+    o.action_dim = action;
     o.hidden = std::move(hidden);
-    o.batch_size = kBatch;
-    if (pair) o.split = {6, 15, 3, -1};
+    o.batch_size = batch_size;
+    o.split = split;
     return o;
   }
   double UpdatesPerSecond(double min_seconds) {
@@ -183,31 +184,47 @@ struct SacTaskBench {
   }
 };
 
-void BenchPushingTask(coins::Figures* f, int reps, double min_seconds) {
-  struct Variant {
-    std::string name;
-    std::vector<int> hidden;
-  };
-  const std::vector<Variant> pairs = {
-      {"pair_64x2", {64, 64}}, {"pair_128x3", {128, 128, 128}}, {"pair_paper", {128, 128, 128, 256, 1024}}};
-  SacTaskBench mlp({128, 128, 128}, false);
-  std::vector<std::unique_ptr<SacTaskBench>> nets;
-  for (const Variant& v : pairs) nets.push_back(std::make_unique<SacTaskBench>(v.hidden, true));
-  std::vector<double> base;
-  std::vector<std::vector<double>> rate(pairs.size()), ratio(pairs.size());
+struct SacVariant {
+  std::string name;
+  std::vector<int> hidden;
+  coins::nn::InstanceSplit split;
+};
+
+// updates/s of each variant and its ratio to the baseline, measured alternately
+void BenchSacVariants(coins::Figures* f, const std::string& prefix, int obs, int action, int batch,
+                      const SacVariant& baseline, const std::vector<SacVariant>& variants, int reps,
+                      double min_seconds) {
+  SacBench base(obs, action, batch, baseline.hidden, baseline.split);
+  std::vector<std::unique_ptr<SacBench>> nets;
+  for (const SacVariant& v : variants)
+    nets.push_back(std::make_unique<SacBench>(obs, action, batch, v.hidden, v.split));
+  std::vector<double> base_rate;
+  std::vector<std::vector<double>> rate(variants.size()), ratio(variants.size());
   for (int r = 0; r < reps; ++r) {
-    const double m = mlp.UpdatesPerSecond(min_seconds);
-    base.push_back(m);
-    for (size_t i = 0; i < pairs.size(); ++i) {
+    base_rate.push_back(base.UpdatesPerSecond(min_seconds));
+    for (size_t i = 0; i < variants.size(); ++i) {
       rate[i].push_back(nets[i]->UpdatesPerSecond(min_seconds));
-      ratio[i].push_back(rate[i].back() / m);
+      ratio[i].push_back(rate[i].back() / base_rate.back());
     }
   }
-  f->AddMedian("pushing_task_sac_mlp_128x3_updates_per_s", base, "updates/s");
-  for (size_t i = 0; i < pairs.size(); ++i) {
-    f->AddMedian("pushing_task_sac_" + pairs[i].name + "_updates_per_s", rate[i], "updates/s");
-    f->AddMedian("pushing_task_sac_" + pairs[i].name + "_vs_mlp", ratio[i], "ratio");
+  f->AddMedian(prefix + baseline.name + "_updates_per_s", base_rate, "updates/s");
+  for (size_t i = 0; i < variants.size(); ++i) {
+    f->AddMedian(prefix + variants[i].name + "_updates_per_s", rate[i], "updates/s");
+    f->AddMedian(prefix + variants[i].name + "_vs_" + baseline.name, ratio[i], "ratio");
   }
+}
+
+// pushing's sac levels at the widths of deploy/configs/pushing.yaml against wider ones
+void BenchPushingSac(coins::Figures* f, int reps, double min_seconds) {
+  const coins::nn::InstanceSplit regions{6, 15, 3, -1};  // the task's 15 obstacle regions at row 6
+  BenchSacVariants(f, "pushing_task_sac_", 57, 2, 128, {"mlp_128x3", {128, 128, 128}, {}},
+                   {{"pair_64x2", {64, 64}, regions},
+                    {"pair_128x3", {128, 128, 128}, regions},
+                    {"pair_paper", {128, 128, 128, 256, 1024}, regions}},
+                   reps, min_seconds);
+  // the block skill: gripper, block, their difference and the x, y goal in; a gripper goal out
+  BenchSacVariants(f, "pushing_block_sac_", 11, 3, 128, {"mlp_128x3", {128, 128, 128}, {}},
+                   {{"mlp_paper", {256, 256, 256, 256, 128}, {}}}, reps, min_seconds);
 }
 
 void BenchPaddle(coins::Figures* f, int seeds) {
@@ -270,7 +287,7 @@ int main(int argc, char** argv) {
   coins::Figures figures;
   Record(&figures, "mlp", BenchMlp(reps, min_seconds));
   Record(&figures, "pairnet", BenchPairNet(reps, min_seconds));
-  BenchPushingTask(&figures, reps, min_seconds);
+  BenchPushingSac(&figures, reps, min_seconds);
   if (paddle) BenchPaddle(&figures, seeds);
   figures.Print(json);
   return 0;

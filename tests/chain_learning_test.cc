@@ -9,13 +9,8 @@
 
 #include <gtest/gtest.h>
 
-#include <optional>
-
-#include "common/dds/node.h"
-#include "common/dds/qos.h"
-#include "common/dds/topics.h"
-#include "idl/weightsPubSubTypes.h"
 #include "tests/process_harness.h"
+#include "tests/weights_watch.h"
 
 namespace coins {
 namespace {
@@ -24,25 +19,13 @@ using namespace coins::testing;
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
-// the checksum the level-1 trainer's weights had in a checkpoint, when it trained at all
-std::optional<uint32_t> PaddleChecksum(const nlohmann::json& state) {
-  if (!state.is_object() || state.value("total_updates", 0) == 0 || !state["trainers"].is_array()) return std::nullopt;
-  for (const auto& t : state["trainers"])
-    if (t.value("level", 0) == 1) return t["acting_checksum"].get<uint32_t>();
-  return std::nullopt;
-}
-
 TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner) {
   auto dir = TempDir("chain-learning");
   const fs::path run = dir / "run";
   const int domain = TestDomain();
 
   // the test watches the weights the learner publishes, from before anything starts
-  DdsOptions dds;
-  dds.domain = domain;
-  auto node = dds::Node::Create(dds, "weights-watch");
-  ASSERT_TRUE(node.ok()) << node.status().message();
-  auto weights = (*node)->MakeReader<msg::PolicyWeightsPubSubType>(dds::kWeightsTopic, dds::CommandReaderQos());
+  auto weights = WeightsWatch::Create(domain);
   ASSERT_TRUE(weights.ok()) << weights.status().message();
 
   std::vector<ChildProcess> coins;
@@ -69,26 +52,18 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
   EXPECT_GT(accepted["links"][0]["spec"]["score"].get<double>(), 3.0);
 
   // a checkpoint with training in it, then kill -9 of the learner
-  ASSERT_TRUE(WaitUntil([&] { return PaddleChecksum(NewestLearnerCheckpoint(run)).has_value(); }, 90s)) << log();
+  ASSERT_TRUE(WaitUntil([&] { return LevelChecksum(NewestLearnerCheckpoint(run), 1).has_value(); }, 90s)) << log();
   const pid_t learner = PidOf("coins-learner", run);
   ASSERT_GT(learner, 0);
   ASSERT_EQ(kill(learner, SIGKILL), 0);
   const uint64_t seq_at_kill = ChainState(run)["seq"].get<uint64_t>();
   // nothing writes checkpoints while the learner is down: the newest one is what it resumes from
   std::this_thread::sleep_for(200ms);
-  const auto expected = PaddleChecksum(NewestLearnerCheckpoint(run));
+  const auto expected = LevelChecksum(NewestLearnerCheckpoint(run), 1);
   ASSERT_TRUE(expected.has_value());
-  weights->TakeAll([](const msg::PolicyWeights&, const auto&) {});  // what the killed learner sent
-  std::optional<uint32_t> first_after;
-  ASSERT_TRUE(WaitUntil(
-      [&] {
-        weights->TakeAll([&](const msg::PolicyWeights& w, const auto&) {
-          if (!first_after && w.name() == "skill/Paddle") first_after = w.checksum();
-        });
-        return first_after.has_value();
-      },
-      60s))
-      << log();
+  weights->Drain();  // what the killed learner sent
+  const auto first_after = weights->NextChecksum("skill/Paddle", 60s);
+  ASSERT_TRUE(first_after.has_value()) << log();
   EXPECT_EQ(*first_after, *expected) << "the restarted learner's first paddle weights differ from its checkpoint";
   EXPECT_NE(ReadText(dir / "run.log").find("learner (pid " + std::to_string(learner) + ") was killed by signal 9"),
             std::string::npos);

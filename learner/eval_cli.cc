@@ -126,10 +126,15 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
     return;
   }
   std::cout << fmt::format("{} on {} ({}):", spec.name, es.name, checkpoint) << "\n";
-  if (spec.is_task())
-    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes (task epsilon {})", r.return_mean, r.return_sd,
-                             r.returns.size(), f.explore)
+  if (spec.is_task()) {
+    // --explore is an epsilon for a dqn task; a sac task given any explore samples its policy
+    const std::string how = spec.algorithm == "dqn" ? fmt::format("task epsilon {}", f.explore)
+                            : f.explore > 0         ? std::string("the task samples its policy")
+                                                    : std::string("greedy");
+    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes ({})", r.return_mean, r.return_sd,
+                             r.returns.size(), how)
               << "\n";
+  }
   if (task && !es.done_means.empty())
     std::cout << fmt::format("  {} in {} of {} episodes ({:.1f}%)", es.done_means, r.episodes_done, r.returns.size(),
                              100.0 * j["done_fraction"].get<double>())

@@ -108,7 +108,8 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
   v.Int("eval_episodes", eval_episodes, 1, 100000, "task episodes per evaluation");
   v.Int("eval_goals", eval_goals, 1, 1000000, "skill goals per evaluation");
   v.Int("eval_max_steps", eval_max_steps, 1, int64_t(1) << 30, "env steps per evaluation episode at most");
-  v.Float("eval_task_explore", eval_task_explore, 0, 1, "task epsilon in evaluations");
+  v.Float("eval_task_explore", eval_task_explore, 0, 1,
+          "task epsilon in evaluations (a sac task samples its policy when > 0)");
   v.Int("checkpoint_keep", checkpoint_keep, 1, 1000, "learner checkpoints kept");
   v.Float("shard_wait_s", shard_wait_s, 1, 1e7, "seconds a silent replay shard is waited for before the job fails");
 }

@@ -155,8 +155,8 @@ const Eigen::MatrixXf& PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>
       ActivationBackward(options_.hidden, acts_[l], deltas_[l - 1]);
     }
   }
-  source_grad_.resize(0, 0);
-  if (source_grad) SourceGrad();
+  if (!source_grad) return empty_;  // source_grad_ keeps its workspace for the next caller that asks
+  SourceGrad();
   return source_grad_;
 }
 

@@ -77,7 +77,8 @@ class PairNet {
   Eigen::MatrixXf out_delta_;
   Eigen::MatrixXf pooled_grad_;
   Eigen::MatrixXf point_grad_, source_grad_;  // d loss / d points, d loss / d source
-  std::vector<uint8_t> present_;              // N x B flags of the last Forward
+  Eigen::MatrixXf empty_;
+  std::vector<uint8_t> present_;  // N x B flags of the last Forward
 };
 
 }  // namespace coins::nn

@@ -78,11 +78,10 @@ class Sac {
 
  private:
   void Concat(const Eigen::MatrixXf& obs, const Eigen::MatrixXf& act);  // -> sa_
+  nn::QNetOptions Network(int in, int out) const;                       // in -> hidden... -> out
 
   SacOptions options_;
   nn::SquashedGaussian head_;
-  nn::QNetOptions Network(int in, int out) const;
-
   nn::QNet actor_, q1_, q2_, q1_target_, q2_target_;
   nn::Adam actor_adam_, q1_adam_, q2_adam_, alpha_adam_;
   nn::ParamSet log_alpha_;

@@ -15,6 +15,7 @@ namespace {
 constexpr int kPending = -1;
 constexpr int kNoReply = -2;
 constexpr int kRounds = 4;
+constexpr std::chrono::seconds kProbePeriod{1};
 }  // namespace
 
 Result<std::unique_ptr<ReplayClient>> ReplayClient::Create(dds::Node& node, const ReplayClientOptions& o) {
@@ -88,9 +89,9 @@ void ReplayClient::Round(Clock::time_point deadline, const std::vector<bool>& go
       uint32_t k = r.shard_id();
       if (k >= uint32_t(K)) return;  // foreign
       Heard(k);
+      sizes_[k] = r.shard_size();                                            // a late reply's size is news too
       if (ids[k] != r.correlation_id() || (*status)[k] != kPending) return;  // stale
       (*status)[k] = r.status();
-      sizes_[k] = r.shard_size();
       if (r.status() == msg::SAMPLE_OK) {
         // keep the reply by swapping buffers: no copy, no allocation once warm
         size_t slot = size_t(round_) * size_t(K) + k;
@@ -118,6 +119,18 @@ void ReplayClient::Heard(uint32_t k) {
   spdlog::info("replay shard {} answers again after {:.1f} s", k,
                std::chrono::duration<double>(Clock::now() - silent_since_[k]).count());
   silent_since_[k] = {};
+}
+
+void ReplayClient::ProbeUnsizedShards() {
+  const auto now = Clock::now();
+  for (size_t k = 0; k < counts_.size(); ++k) {
+    if (sizes_[k] > 0 || counts_[k] > 0 || now < next_probe_[k]) continue;
+    auto largest = std::max_element(counts_.begin(), counts_.end());
+    if (*largest < 2) return;  // nothing to spare
+    --*largest;
+    counts_[k] = 1;
+    next_probe_[k] = now + kProbePeriod;
+  }
 }
 
 Status ReplayClient::CheckSilence() const {
@@ -192,6 +205,7 @@ Status ReplayClient::Sample(const SampleSpec& spec, int batch, SampleColumns* ou
   const auto deadline = Clock::now() + options_.timeout;
   merged_.clear();
   SplitBatch(sizes_, uint32_t(batch), &counts_);
+  ProbeUnsizedShards();
   Status gathered = Gather(spec, uint32_t(batch), deadline);
   COINS_RETURN_IF_ERROR(CheckSilence());
   COINS_RETURN_IF_ERROR(gathered);

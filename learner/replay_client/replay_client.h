@@ -2,7 +2,10 @@
 // SampleSource (sample_source.h) and, for existing users, an rl::BatchSource that samples with
 // options() as its spec. One Sample() call splits the batch over the K shards in proportion to
 // their sizes (as last reported in their replies; equal at first), sends one SampleRequest per
-// shard (correlation ids), and merges the replies (MergeReplies). Up to 4 rounds within the
+// shard (correlation ids), and merges the replies (MergeReplies). A shard with no rows known
+// (it never answered, or it was empty) is still asked for one sample of a call at most once per
+// second, so a shard whose first reply was late, or that filled later, is sampled again as soon
+// as it says its size; any reply, a late one included, updates the shard's size. Up to 4 rounds within the
 // timeout: a shard that did not answer a round, or answered NOT_READY or BAD_REQUEST, has its
 // share asked from the shards that did answer; when none did, the same shards are asked again.
 // If samples are still missing at the timeout, Sample() fails with a message naming the shards
@@ -78,7 +81,7 @@ class ReplayClient final : public SampleSource, public rl::BatchSource {
  private:
   using Clock = std::chrono::steady_clock;
   ReplayClient(const ReplayClientOptions& o)
-      : options_(o), sizes_(size_t(o.shards), 0), silent_since_(size_t(o.shards)) {}
+      : options_(o), sizes_(size_t(o.shards), 0), silent_since_(size_t(o.shards)), next_probe_(size_t(o.shards)) {}
   // rounds until every share came or the deadline passed; fills merged_
   Status Gather(const SampleSpec& spec, uint32_t batch, Clock::time_point deadline);
   // one round: asks each shard k for counts_[k]; fills status[k] (a SAMPLE_* or kNoReply). A
@@ -91,6 +94,9 @@ class ReplayClient final : public SampleSource, public rl::BatchSource {
   bool silent(uint32_t k) const { return silent_since_[k] != Clock::time_point{}; }
   // a reply of shard k came (of this call or an older one): it is no longer silent
   void Heard(uint32_t k);
+  // gives a shard with no known rows one sample of counts_ (from the largest share), at most once
+  // per kProbePeriod per shard: the reply tells its size
+  void ProbeUnsizedShards();
   // an error naming the first shard silent for longer than options_.shard_wait (ok when none)
   Status CheckSilence() const;
   void SendUpdates(uint8_t kind, std::span<const uint64_t> keys, std::span<const float> values);
@@ -101,6 +107,7 @@ class ReplayClient final : public SampleSource, public rl::BatchSource {
   dds::Writer<msg::PriorityUpdate> updates_;
   std::vector<uint64_t> sizes_;
   std::vector<Clock::time_point> silent_since_;  // {}: the shard answers
+  std::vector<Clock::time_point> next_probe_;    // when a shard without known rows is asked next
   std::vector<uint32_t> counts_;
   uint64_t next_id_ = 1;
   msg::SampleRequest request_;

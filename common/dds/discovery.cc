@@ -118,6 +118,21 @@ Status ConfigureParticipant(const DdsOptions& options, eprosima::fastdds::dds::D
     builtin.discovery_config.discoveryProtocol = DiscoveryProtocol_t::CLIENT;
     for (size_t i = 0; i < servers->size(); ++i)
       builtin.discovery_config.m_DiscoveryServers.push_back(RemoteServer((*servers)[i], int(i)));
+  } else if (options.discovery == "local") {
+    // discovery and security handshakes on one UDP loopback port per participant, announced to
+    // the ports of every participant id on loopback; no multicast, no shared memory (user data
+    // still prefers shared memory). One metatraffic socket means one receive thread, which Fast
+    // DDS 2.9.1 needs: its security manager matches a newly discovered participant's handshake
+    // endpoints through scratch data that two receive threads (multicast and unicast, shared
+    // memory and UDP) may fill at once, and the pair whose endpoints were mixed up never finishes
+    // its handshake (seen: 2-6 of ~36 pairs of a secured run stuck for good; fixed upstream in 2.10)
+    Locator_t loopback;
+    loopback.kind = LOCATOR_KIND_UDPv4;
+    IPLocator::setIPv4(loopback, "127.0.0.1");
+    loopback.port = 0;  // Fast DDS fills in the participant's well-known port (each id's, as a peer)
+    builtin.metatrafficUnicastLocatorList.push_back(loopback);
+    builtin.initialPeersList.push_back(loopback);
+    builtin.avoid_builtin_multicast = true;
   } else if (options.discovery == "peers") {
     auto peers = ParsePeers(options.peers);
     if (!peers.ok()) return peers.status().WithContext("dds.peers");

@@ -1,13 +1,20 @@
 // How a participant finds the others (the dds.discovery modes of DdsOptions) and the discovery
 // servers of a cluster.
 //
-//   local     - this machine only: UDP on 127.0.0.1 plus shared memory, no multicast
+//   local     - this machine only: discovery and security handshakes on one UDP loopback port
+//               per participant, announced to the ports of participant ids 0..63 (no multicast);
+//               data over shared memory, or UDP on 127.0.0.1
 //   multicast - standard SPDP multicast on every interface (one LAN)
 //   server    - discovery servers at dds.discovery_server ("ip:port[,ip:port]"): the first is the
 //               primary, the second a backup; every participant is a client of all of them and
 //               the servers are clients of each other, so either alone keeps the run discovering
 //   peers     - static unicast initial peers at dds.peers ("ip[,ip...]"): each host sends its
 //               announcements to the listed hosts (no server, no multicast)
+//
+// Local discovery keeps each participant's discovery traffic on one socket, hence one receive
+// thread: Fast DDS 2.9.1 can leave a security handshake stalled for good when two participants
+// are discovered at once on two threads (discovery.cc). The multi-host modes still listen on
+// several sockets, so a secured cluster run can meet that stall (a restarted process clears it).
 //
 // Between hosts only UDP is used: Fast DDS offers shared memory only to participants of the same
 // host. A server's GUID prefix is the well-known one of its index (the `fastdds discovery -i N`

@@ -1,8 +1,11 @@
 #include "common/dds/node.h"
 
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
-
+#include <cstdlib>
+#include <mutex>
 #include <sstream>
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/log/Log.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -29,7 +32,22 @@ std::string PublisherOf(const SampleInfo& info) {
   return out.str();
 }
 
+namespace {
+// Fast DDS prints only its errors; COINS_FASTDDS_LOG=warning (or info, where compiled in) shows
+// more of its own log on stderr, for debugging discovery and transports
+void ShowFastDdsLog() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    const char* level = std::getenv("COINS_FASTDDS_LOG");
+    if (!level) return;
+    if (std::string(level) == "warning") Log::SetVerbosity(Log::Warning);
+    if (std::string(level) == "info") Log::SetVerbosity(Log::Info);
+  });
+}
+}  // namespace
+
 Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std::string& name) {
+  ShowFastDdsLog();
   DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   COINS_RETURN_IF_ERROR(ConfigureParticipant(options, qos));

@@ -173,6 +173,8 @@ class Node {
   int participant_id() const { return participant_id_; }
   // remote participants refused by DDS Security (authentication failed); 0 without security
   uint64_t refused_participants() const { return events_->refused(); }
+  // remote participants DDS Security authenticated and authorized so far; 0 without security
+  uint64_t authorized_participants() const { return events_->authorized(); }
   // with dds.discovery: server, waits up to dds.server_wait_s until a discovery server of
   // dds.discovery_server answers; the error names the addresses (other modes: Ok at once)
   Status AwaitDiscoveryServer() const;

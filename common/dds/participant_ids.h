@@ -2,7 +2,8 @@
 //
 // A participant's id fixes its two unicast ports (metatraffic kPortBase + kDomainGain * d + 10 +
 // 2 * id, user data + 11 + 2 * id) and with them its shared-memory port files
-// /dev/shm/fastrtps_portN. A live port holds a lock file fastrtps_portN_el; a clean close removes
+// /dev/shm/fastrtps_portN (the user data port's only, with local discovery, whose metatraffic is
+// on UDP: common/dds/discovery.h). A live port holds a lock file fastrtps_portN_el; a clean close removes
 // it, a process killed -9 leaves it behind unlocked (a "zombie" port).
 //
 // Fast DDS 2.9 gives a process's participants the lowest ids the process has not used, so a

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "common/dds/node.h"
+#include "common/dds/participant_ids.h"
 
 namespace coins::dds {
 
@@ -71,7 +72,7 @@ void AddTransports(const DdsOptions& options, eprosima::fastdds::dds::DomainPart
   shm->segment_size(static_cast<uint32_t>(options.shm_segment_mb) * 1024 * 1024);
   qos.transport().user_transports.push_back(shm);
   auto udp = std::make_shared<UDPv4TransportDescriptor>();
-  udp->maxInitialPeersRange = 64;
+  udp->maxInitialPeersRange = kParticipantIdLimit;
   if (options.discovery == "local") udp->interfaceWhiteList.push_back("127.0.0.1");
   qos.transport().user_transports.push_back(udp);
 }

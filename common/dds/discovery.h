@@ -2,7 +2,7 @@
 // servers of a cluster.
 //
 //   local     - this machine only: discovery and security handshakes on one UDP loopback port
-//               per participant, announced to the ports of participant ids 0..63 (no multicast);
+//               per participant, announced to the ports of participant ids 0..119 (no multicast);
 //               data over shared memory, or UDP on 127.0.0.1
 //   multicast - standard SPDP multicast on every interface (one LAN)
 //   server    - discovery servers at dds.discovery_server ("ip:port[,ip:port]"): the first is the

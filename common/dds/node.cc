@@ -90,9 +90,10 @@ Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainPartic
     static std::once_flag warned;
     std::call_once(warned, [&] {
       spdlog::warn(
-          "dds: every participant id of domain {} is held, some by ports of killed processes; a participant "
-          "restarted there may go unheard (`fastdds shm clean` removes those ports)",
-          domain);
+          "dds: every participant id 0..{} of domain {} is held, some perhaps by ports of killed processes "
+          "(`fastdds shm clean` removes those); this participant's id is Fast DDS's choice, and with local or "
+          "peers discovery only participants it announces itself to will find it",
+          kParticipantIdLimit - 1, domain);
     });
   }
   // the listener hears about remote participants only: its status mask leaves data and matching

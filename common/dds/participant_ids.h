@@ -41,8 +41,9 @@ class ParticipantIdLock {
   int fd_ = -1;
 };
 
-// ids a participant may take: the unicast initial peers of local discovery reach this many
-inline constexpr int kParticipantIdLimit = 64;
+// ids a participant may take: local and peers discovery announce to the ports of this many ids,
+// and id 119's ports are the last inside a domain's port range (kDomainGain)
+inline constexpr int kParticipantIdLimit = 120;
 
 // the lowest id in [0, limit) whose two ports have no lock file on this machine (no live and no
 // killed participant holds them) and that no participant of this process holds; the id is then

@@ -127,10 +127,8 @@ Status ConfigureParticipant(const DdsOptions& options, eprosima::fastdds::dds::D
     // endpoints through scratch data that two receive threads (multicast and unicast, shared
     // memory and UDP) may fill at once, and the pair whose endpoints were mixed up never finishes
     // its handshake (seen: 2-6 of ~36 pairs of a secured run stuck for good; fixed upstream in 2.10)
-    Locator_t loopback;
-    loopback.kind = LOCATOR_KIND_UDPv4;
-    IPLocator::setIPv4(loopback, "127.0.0.1");
-    loopback.port = 0;  // Fast DDS fills in the participant's well-known port (each id's, as a peer)
+    // port 0: Fast DDS fills in the participant's well-known port (each id's, as a peer)
+    const Locator_t loopback = UdpLocator({"127.0.0.1", 0});
     builtin.metatrafficUnicastLocatorList.push_back(loopback);
     builtin.initialPeersList.push_back(loopback);
     builtin.avoid_builtin_multicast = true;
@@ -138,13 +136,8 @@ Status ConfigureParticipant(const DdsOptions& options, eprosima::fastdds::dds::D
     auto peers = ParsePeers(options.peers);
     if (!peers.ok()) return peers.status().WithContext("dds.peers");
     // the well-known metatraffic port of every participant id of the domain on each peer
-    for (const std::string& ip : *peers) {
-      Locator_t l;
-      l.kind = LOCATOR_KIND_UDPv4;
-      IPLocator::setIPv4(l, ip);
-      l.port = 0;  // Fast DDS fills in the port of each participant id (maxInitialPeersRange)
-      builtin.initialPeersList.push_back(l);
-    }
+    // port 0: Fast DDS fills in the port of each participant id (maxInitialPeersRange)
+    for (const std::string& ip : *peers) builtin.initialPeersList.push_back(UdpLocator({ip, 0}));
     builtin.avoid_builtin_multicast = true;
   }
   return Status::Ok();

@@ -2,6 +2,7 @@
 //   coins run       start a whole run on this machine
 //   coins transfer  a new task policy over a run's learned skills, on another env
 //   coins experiment transfer   COInS transfer against vanilla on the Breakout variants, as tables
+//   coins experiment pushing    COInS against vanilla SAC on robot pushing, as a table
 //   coins monitor   live table of a run, from any machine in the DDS domain
 //   coins discovery-server   a DDS discovery server of a cluster
 //   coins security init      the certificates and permissions of a secured run

@@ -12,6 +12,7 @@
 #include <map>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -28,20 +29,73 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// the paper's final returns (shared/reference/breakout.md, Table 3)
-const std::map<std::string, std::map<std::string, double>> kPaper = {
-    {"single", {{"coins", -3.2}, {"vanilla", -5.8}}}, {"hard", {{"coins", -4.2}, {"vanilla", -7.1}}},
-    {"big", {{"coins", 0.85}, {"vanilla", 0.74}}},    {"neg", {{"coins", 3.6}, {"vanilla", 2.9}}},
-    {"center", {{"coins", -12}, {"vanilla", -37}}},   {"prox", {{"coins", 0.5}, {"vanilla", 0.1}}}};
+// what one experiment compares: its variants (envs), methods and the paper's numbers
+struct Suite {
+  std::string name;                  // the subcommand; the tables' file names
+  std::string title;                 // the tables' heading
+  std::string env_prefix;            // a variant's env: prefix + variant
+  std::string skill;                 // the chain's top skill the coins method's task acts through
+  std::string pretrain_env;          // finetune's pre-training env ("": no finetune method)
+  std::vector<std::string> methods;  // known methods, in the tables' order
+  int64_t eval_episodes;             // the final evaluation's episodes by default
+  std::string eval_explore;          // `coins eval --explore` of the final evaluation ("": the run's)
+  std::map<std::string, std::map<std::string, double>> paper;  // variant -> method -> final return
+};
+
+const Suite& TransferSuite() {
+  // the paper's final returns: shared/reference/breakout.md, Table 3
+  static const Suite s{"transfer",
+                       "Transfer to the Breakout variants",
+                       "breakout-",
+                       "Ball",
+                       "breakout",
+                       {"coins", "vanilla", "finetune"},
+                       20,
+                       "",
+                       {{"single", {{"coins", -3.2}, {"vanilla", -5.8}}},
+                        {"hard", {{"coins", -4.2}, {"vanilla", -7.1}}},
+                        {"big", {{"coins", 0.85}, {"vanilla", 0.74}}},
+                        {"neg", {{"coins", 3.6}, {"vanilla", 2.9}}},
+                        {"center", {{"coins", -12}, {"vanilla", -37}}},
+                        {"prox", {{"coins", 0.5}, {"vanilla", 0.1}}}}};
+  return s;
+}
+
+const Suite& PushingSuite() {
+  // shared/reference/pushing.md: COInS -21.6 within 700k steps, vanilla SAC -30 (never touches
+  // the block). A sac task is evaluated by the tanh of its policy's mean (explore 0).
+  static const Suite s{"pushing",
+                       "Robot pushing with negative reward regions: COInS against vanilla SAC",
+                       "",
+                       "Block",
+                       "",
+                       {"coins", "vanilla"},
+                       50,
+                       "0",
+                       {{"pushing", {{"coins", -21.6}, {"vanilla", -30}}}}};
+  return s;
+}
+
+const Suite& SuiteNamed(const std::string& name) { return name == "pushing" ? PushingSuite() : TransferSuite(); }
+
+std::string Known(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+std::vector<std::string> Variants(const Suite& s) {
+  std::vector<std::string> v;
+  for (const auto& [name, _] : s.paper) v.push_back(name);
+  return v;
+}
 
 struct Cell {
-  std::vector<double> finals;
+  std::vector<double> finals, done, penalty;  // per run: final return, goal-reaching and penalty fractions
   std::vector<RunResult> runs;
   double mean = 0, sd = 0;
   std::string not_run;  // why the method could not run on this variant
 };
-
-const std::vector<std::string> kMethods = {"coins", "vanilla", "finetune"};
 
 fs::path RunDir(const ExperimentFlags& f, const std::string& variant, const std::string& method, int64_t seed) {
   return fs::path(f.out) / variant / fmt::format("{}-seed{}", method, seed);
@@ -51,18 +105,20 @@ fs::path PretrainDir(const ExperimentFlags& f, int64_t seed) {
   return fs::path(f.out) / "pretrain" / fmt::format("vanilla-seed{}", seed);
 }
 
-// variant "" with method vanilla: the pre-training on base Breakout
+// variant "" with method vanilla: finetune's pre-training (on the suite's pretrain_env)
 std::vector<std::string> RunArgv(const ExperimentFlags& f, const std::string& variant, const std::string& method,
                                  int64_t seed) {
+  const Suite& suite = SuiteNamed(f.suite);
   const std::string coins = SelfDirectory() + "/coins";
   const bool pretrain = variant.empty();
   const std::string dir = (pretrain ? PretrainDir(f, seed) : RunDir(f, variant, method, seed)).string();
-  const std::string env = pretrain ? "breakout" : "breakout-" + variant;
+  const std::string env = pretrain ? suite.pretrain_env : suite.env_prefix + variant;
   const int64_t steps = pretrain ? f.pretrain_steps : f.steps;
   std::vector<std::string> argv;
-  if (method == "coins" || method == "finetune") {
-    const std::string from = method == "coins" ? f.chain : PretrainDir(f, seed).string();
-    argv = {coins, "transfer", from, "--env", env, "--steps", std::to_string(steps)};
+  if (method == "coins") {
+    argv = {coins, "transfer", f.chain, "--env", env, "--steps", std::to_string(steps), "--skill", suite.skill};
+  } else if (method == "finetune") {
+    argv = {coins, "transfer", PretrainDir(f, seed).string(), "--env", env, "--steps", std::to_string(steps)};
   } else {
     argv = {coins,      "run",
             "--config", (fs::path(f.chain) / "config.yaml").string(),
@@ -103,14 +159,18 @@ Status RunChild(const std::vector<std::string>& argv, const std::string& log, st
   return Status::Ok();
 }
 
-// the final return of a finished run: `coins eval` of its newest checkpoint (greedy task with the
-// evaluation epsilon, eval_episodes episodes, a fixed seed), kept in dir/final-eval.json
-Status FinalEval(const fs::path& dir, int64_t episodes, int64_t seed, RunResult* r) {
+// the final return of a finished run: `coins eval` of its newest checkpoint (the task greedy but
+// for the suite's evaluation epsilon, eval_episodes episodes, a fixed seed), kept in
+// dir/final-eval.json
+Status FinalEval(const fs::path& dir, const ExperimentFlags& f, int64_t seed, RunResult* r) {
   const fs::path file = dir / "final-eval.json";
   if (!fs::exists(file)) {
-    auto ran = RunBounded({SelfDirectory() + "/coins", "eval", dir.string(), "--episodes", std::to_string(episodes),
-                           "--seed", std::to_string(1000 + seed), "--json"},
-                          file.string() + ".tmp", std::chrono::seconds(1800));
+    std::vector<std::string> argv = {
+        SelfDirectory() + "/coins",  "eval",  dir.string(), "--episodes", std::to_string(f.eval_episodes), "--seed",
+        std::to_string(1000 + seed), "--json"};
+    if (const std::string& explore = SuiteNamed(f.suite).eval_explore; !explore.empty())
+      argv.insert(argv.end(), {"--explore", explore});
+    auto ran = RunBounded(argv, file.string() + ".tmp", std::chrono::seconds(1800));
     if (!Succeeded(ran)) return Errorf("coins eval {} failed; see {}.tmp", dir.string(), file.string());
     fs::rename(file.string() + ".tmp", file);
   }
@@ -120,6 +180,8 @@ Status FinalEval(const fs::path& dir, int64_t episodes, int64_t seed, RunResult*
     return Errorf("{}: not a `coins eval --json` result", file.string());
   r->final_return = j["return_mean"].get<double>();
   r->final_sd = j.value("return_sd", 0.0);
+  for (auto [key, out] : {std::pair{"done_fraction", &r->done_fraction}, {"penalty_fraction", &r->penalty_fraction}})
+    if (j.contains(key) && j[key].is_number()) *out = j[key].get<double>();
   return Status::Ok();
 }
 
@@ -138,13 +200,29 @@ Result<RunResult> EnsureRun(const fs::path& dir, const std::vector<std::string>&
   return result;
 }
 
-void MeanSd(Cell& c) {
-  if (c.finals.empty()) return;
+// mean and sample standard deviation (0 for one value)
+std::pair<double, double> MeanSd(const std::vector<double>& xs) {
+  if (xs.empty()) return {0.0, 0.0};
   double sum = 0, sq = 0;
-  for (double x : c.finals) sum += x;
-  c.mean = sum / double(c.finals.size());
-  for (double x : c.finals) sq += (x - c.mean) * (x - c.mean);
-  c.sd = c.finals.size() > 1 ? std::sqrt(sq / double(c.finals.size() - 1)) : 0.0;
+  for (double x : xs) sum += x;
+  const double mean = sum / double(xs.size());
+  for (double x : xs) sq += (x - mean) * (x - mean);
+  return {mean, xs.size() > 1 ? std::sqrt(sq / double(xs.size() - 1)) : 0.0};
+}
+
+void Add(Cell& c, const RunResult& r) {
+  c.finals.push_back(r.final_return);
+  if (!std::isnan(r.done_fraction)) c.done.push_back(r.done_fraction);
+  if (!std::isnan(r.penalty_fraction)) c.penalty.push_back(r.penalty_fraction);
+  c.runs.push_back(r);
+  std::tie(c.mean, c.sd) = MeanSd(c.finals);
+}
+
+// " 41.3 +- 2.0% |" of fractions, " - |" without them
+std::string PercentCell(const std::vector<double>& fractions) {
+  if (fractions.empty()) return " - |";
+  const auto [mean, sd] = MeanSd(fractions);
+  return fmt::format(" {:.1f} +- {:.1f}% |", 100 * mean, 100 * sd);
 }
 
 // env steps of the first evaluation at or above `level`, per run (nullopt: never)
@@ -177,8 +255,8 @@ Status WriteCurves(const ExperimentFlags& f, const std::string& variant) {
   const std::string png = (fs::path(f.out) / fmt::format("curves-{}.png", variant)).string();
   std::string script = fmt::format(
       "set datafile separator ','\nset terminal pngcairo size 900,540\nset grid\nset xlabel 'env steps'\n"
-      "set ylabel 'eval return'\nset key bottom right\nset output '{}'\nset title 'breakout-{}: eval return'\nplot ",
-      png, variant);
+      "set ylabel 'eval return'\nset key bottom right\nset output '{}'\nset title '{}: eval return'\nplot ",
+      png, SuiteNamed(f.suite).env_prefix + variant);
   bool first = true;
   for (size_t m = 0; m < f.methods.size(); ++m)
     for (int64_t s = 1; s <= f.seeds; ++s) {
@@ -196,23 +274,41 @@ Status WriteCurves(const ExperimentFlags& f, const std::string& variant) {
   return Status::Ok();
 }
 
+// the Markdown table's header: final returns, the paper's, steps to vanilla's final, and the goal
+// and penalty fractions when the runs' evaluations have them
+std::string TableHeader(const ExperimentFlags& f, bool fractions) {
+  std::string md = "| variant |";
+  size_t columns = 3 * f.methods.size();
+  for (const auto& m : f.methods) md += fmt::format(" {} |", m);
+  for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
+  for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final |", m);
+  if (fractions) {
+    for (const auto& m : f.methods) md += fmt::format(" {}: episodes reaching the goal |", m);
+    for (const auto& m : f.methods) md += fmt::format(" {}: steps in penalty regions |", m);
+    columns += 2 * f.methods.size();
+  }
+  md += "\n|---|";
+  for (size_t i = 0; i < columns; ++i) md += "---|";
+  return md + "\n";
+}
+
 Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::map<std::string, Cell>>& cells) {
-  json j = {{"chain", fs::absolute(f.chain).lexically_normal().string()},
+  const Suite& suite = SuiteNamed(f.suite);
+  json j = {{"suite", f.suite},
+            {"chain", fs::absolute(f.chain).lexically_normal().string()},
             {"steps", f.steps},
             {"seeds", f.seeds},
             {"methods", f.methods},
             {"final", fmt::format("coins eval of each run's final checkpoint, {} episodes", f.eval_episodes)}};
+  bool fractions = false;
+  for (const auto& [v, row] : cells)
+    for (const auto& [m, c] : row) fractions = fractions || !c.done.empty() || !c.penalty.empty();
   std::string md = fmt::format(
-      "# Transfer to the Breakout variants\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: "
-      "`coins eval` of each run's final checkpoint ({} episodes, task epsilon 0.05); mean +- sd over seeds.\n\n"
-      "| variant |",
-      f.chain, f.steps, f.seeds, f.eval_episodes);
-  for (const auto& m : f.methods) md += fmt::format(" {} |", m);
-  for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
-  for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final |", m);
-  md += "\n|---|";
-  for (size_t i = 0; i < 3 * f.methods.size(); ++i) md += "---|";
-  md += "\n";
+      "# {}\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: `coins eval` of each run's final "
+      "checkpoint ({} episodes, {}); mean +- sd over seeds.\n\n",
+      suite.title, f.chain, f.steps, f.seeds, f.eval_episodes,
+      suite.eval_explore.empty() ? "the task's evaluation epsilon" : "task explore " + suite.eval_explore);
+  md += TableHeader(f, fractions);
   for (const auto& v : f.variants) {
     const auto& row = cells.at(v);
     const bool has_vanilla = row.count("vanilla") && !row.at("vanilla").finals.empty();
@@ -222,36 +318,45 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       const Cell& c = row.at(m);
       json& out = j["variants"][v][m];
       out = {{"mean", c.mean}, {"sd", c.sd}, {"runs", c.finals}};
+      if (!c.done.empty()) out["done_fraction"] = c.done;
+      if (!c.penalty.empty()) out["penalty_fraction"] = c.penalty;
       if (!c.not_run.empty()) out["not_run"] = c.not_run;
       md += c.finals.empty() ? " not run |" : fmt::format(" {:.2f} +- {:.2f} |", c.mean, c.sd);
       if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
     }
     for (const auto& m : f.methods) {
-      const auto p = kPaper.count(v) && kPaper.at(v).count(m) ? kPaper.at(v).at(m) : NAN;
+      const auto p = suite.paper.count(v) && suite.paper.at(v).count(m) ? suite.paper.at(v).at(m) : NAN;
       j["variants"][v]["paper"][m] = std::isnan(p) ? json(nullptr) : json(p);
       md += std::isnan(p) ? " - |" : fmt::format(" {} |", p);
     }
     for (const auto& m : f.methods)
       md += has_vanilla ? " " + Reach(j["variants"][v][m]["steps_to_vanilla_final"]) + " |" : " - |";
+    if (fractions) {
+      for (const auto& m : f.methods) md += PercentCell(row.at(m).done);
+      for (const auto& m : f.methods) md += PercentCell(row.at(m).penalty);
+    }
     md += "\n";
   }
   for (const auto& v : f.variants)
     for (const auto& m : f.methods)
       if (!cells.at(v).at(m).not_run.empty())
-        md += fmt::format("\n- {} on breakout-{}: not run: {}", m, v, cells.at(v).at(m).not_run);
-  COINS_RETURN_IF_ERROR(WriteFileAtomic((fs::path(f.out) / "transfer.json").string(), j.dump(1) + "\n"));
-  return WriteFileAtomic((fs::path(f.out) / "transfer.md").string(), md);
+        md += fmt::format("\n- {} on {}: not run: {}", m, suite.env_prefix + v, cells.at(v).at(m).not_run);
+  COINS_RETURN_IF_ERROR(WriteFileAtomic((fs::path(f.out) / (f.suite + ".json")).string(), j.dump(1) + "\n"));
+  return WriteFileAtomic((fs::path(f.out) / (f.suite + ".md")).string(), md + "\n");
 }
 
 Status Check(ExperimentFlags& f) {
+  const Suite& suite = SuiteNamed(f.suite);
   if (!fs::exists(fs::path(f.chain) / "config.yaml")) return Errorf("--chain {}: not a run directory", f.chain);
+  if (f.variants.empty()) f.variants = Variants(suite);
+  if (f.methods.empty()) f.methods = suite.methods;
   for (const auto& v : f.variants)
-    if (!kPaper.count(v))
-      return Errorf("--variants: unknown variant '{}' (known: single, hard, big, neg, center, prox)", v);
+    if (!suite.paper.count(v)) return Errorf("--variants: unknown variant '{}' (known: {})", v, Known(Variants(suite)));
   for (const auto& m : f.methods)
-    if (std::find(kMethods.begin(), kMethods.end(), m) == kMethods.end())
-      return Errorf("--methods: unknown method '{}' (known: coins, vanilla, finetune)", m);
-  if (f.out.empty()) f.out = (fs::path(f.chain) / "experiment-transfer").string();
+    if (std::find(suite.methods.begin(), suite.methods.end(), m) == suite.methods.end())
+      return Errorf("--methods: unknown method '{}' (known: {})", m, Known(suite.methods));
+  if (f.eval_episodes == 0) f.eval_episodes = suite.eval_episodes;
+  if (f.out.empty()) f.out = (fs::path(f.chain) / ("experiment-" + f.suite)).string();
   std::error_code ec;
   fs::create_directories(f.out, ec);
   if (ec) return Errorf("--out {}: {}", f.out, ec.message());
@@ -286,7 +391,7 @@ Result<RunResult> ReadRunResult(const std::string& dir) {
   return r;
 }
 
-Status RunTransferExperiment(const ExperimentFlags& flags) {
+Status RunExperiment(const ExperimentFlags& flags) {
   ExperimentFlags f = flags;
   COINS_RETURN_IF_ERROR(Check(f));
   InstallStopSignals();
@@ -296,7 +401,8 @@ Status RunTransferExperiment(const ExperimentFlags& flags) {
   for (const auto& v : f.variants)
     for (const auto& m : f.methods)
       for (int64_t s = 1; s <= f.seeds; ++s) {
-        const std::string what = fmt::format("[{}/{}] breakout-{} {} seed {}", ++n, total, v, m, s);
+        const std::string what =
+            fmt::format("[{}/{}] {} {} seed {}", ++n, total, SuiteNamed(f.suite).env_prefix + v, m, s);
         Cell& c = cells[v][m];
         if (m == "finetune") {
           auto pre = EnsureRun(
@@ -312,46 +418,62 @@ Status RunTransferExperiment(const ExperimentFlags& flags) {
           c.not_run = refused;
           continue;
         }
-        COINS_RETURN_IF_ERROR(FinalEval(RunDir(f, v, m, s), f.eval_episodes, s, &*result));
+        COINS_RETURN_IF_ERROR(FinalEval(RunDir(f, v, m, s), f, s, &*result));
         std::cout << fmt::format("{}: final eval return {:.2f} ({:.0f} s)", what, result->final_return, result->wall_s)
                   << std::endl;
-        c.finals.push_back(result->final_return);
-        c.runs.push_back(*result);
+        Add(c, *result);
       }
-  for (auto& [v, row] : cells)
-    for (auto& [m, c] : row) MeanSd(c);
   COINS_RETURN_IF_ERROR(WriteTables(f, cells));
   for (const auto& v : f.variants)
     if (Status s = WriteCurves(f, v); !s.ok()) std::cerr << "coins experiment: " << s.message() << "\n";
-  if (auto md = ReadFileText((fs::path(f.out) / "transfer.md").string()); md.ok()) std::cout << *md << "\n";
-  std::cout << "coins experiment: tables in " << f.out << "/transfer.md and transfer.json, curves in " << f.out
-            << "/curves-*.png\n";
+  if (auto md = ReadFileText((fs::path(f.out) / (f.suite + ".md")).string()); md.ok()) std::cout << *md << "\n";
+  std::cout << fmt::format("coins experiment: tables in {}/{}.md and {}.json, curves in {}/curves-*.png\n", f.out,
+                           f.suite, f.suite, f.out);
   return Status::Ok();
 }
+
+namespace {
+
+void AddSuiteCommand(CLI::App* exp, const Suite& suite, const std::string& help, int* exit_code) {
+  auto f = std::make_shared<ExperimentFlags>();
+  f->suite = suite.name;
+  CLI::App* t = exp->add_subcommand(suite.name, help);
+  t->add_option("--chain", f->chain, fmt::format("run directory of a learned chain (with its {} skill)", suite.skill))
+      ->required();
+  t->add_option("--variants", f->variants, fmt::format("variants (default: {})", Known(Variants(suite))))
+      ->delimiter(',');
+  t->add_option("--methods", f->methods, fmt::format("methods (default: {})", Known(suite.methods)))->delimiter(',');
+  t->add_option("--seeds", f->seeds, "seeds per variant and method")->check(CLI::Range(1, 100));
+  t->add_option("--steps", f->steps, "env steps of each run")->check(cli::Integer(1000, int64_t(1) << 40));
+  t->add_option("--eval-episodes", f->eval_episodes,
+                fmt::format("episodes of the final evaluation of each run (default {})", suite.eval_episodes))
+      ->check(CLI::Range(1, 100000));
+  if (!suite.pretrain_env.empty())
+    t->add_option("--pretrain-steps", f->pretrain_steps,
+                  fmt::format("finetune: env steps of the vanilla run on {}", suite.pretrain_env))
+        ->check(cli::Integer(1000, int64_t(1) << 40));
+  t->add_option("--out", f->out, fmt::format("output directory (default: CHAIN/experiment-{})", suite.name));
+  t->add_option("--set", f->overrides, "a config override for every run (repeatable)");
+  t->callback([f, exit_code] {
+    if (Status s = RunExperiment(*f); !s.ok()) {
+      std::cerr << "coins experiment " << f->suite << ": " << s.message() << "\n";
+      *exit_code = 2;
+    }
+  });
+}
+
+}  // namespace
 
 void AddExperimentCommand(CLI::App& app, int* exit_code) {
   CLI::App* exp = app.add_subcommand("experiment", "Run a whole experiment of several runs and write its tables.");
   exp->require_subcommand(1);
-  auto f = std::make_shared<ExperimentFlags>();
-  CLI::App* t = exp->add_subcommand(
-      "transfer", "COInS transfer against vanilla DQN on the Breakout variants (the paper's transfer table).");
-  t->add_option("--chain", f->chain, "run directory of a learned Breakout chain (with its Ball skill)")->required();
-  t->add_option("--variants", f->variants, "variants (default: all six)")->delimiter(',');
-  t->add_option("--methods", f->methods, "methods: coins, vanilla, finetune (default: all three)")->delimiter(',');
-  t->add_option("--seeds", f->seeds, "seeds per variant and method")->check(CLI::Range(1, 100));
-  t->add_option("--steps", f->steps, "env steps of each run")->check(cli::Integer(1000, int64_t(1) << 40));
-  t->add_option("--eval-episodes", f->eval_episodes, "episodes of the final evaluation of each run")
-      ->check(CLI::Range(1, 100000));
-  t->add_option("--pretrain-steps", f->pretrain_steps, "finetune: env steps of the vanilla run on base Breakout")
-      ->check(cli::Integer(1000, int64_t(1) << 40));
-  t->add_option("--out", f->out, "output directory (default: CHAIN/experiment-transfer)");
-  t->add_option("--set", f->overrides, "a config override for every run (repeatable)");
-  t->callback([f, exit_code] {
-    if (Status s = RunTransferExperiment(*f); !s.ok()) {
-      std::cerr << "coins experiment transfer: " << s.message() << "\n";
-      *exit_code = 2;
-    }
-  });
+  AddSuiteCommand(exp, TransferSuite(),
+                  "COInS transfer against vanilla DQN and fine-tuning on the Breakout variants (the paper's "
+                  "transfer table).",
+                  exit_code);
+  AddSuiteCommand(exp, PushingSuite(),
+                  "COInS (a task over the chain's frozen Block skill) against vanilla SAC on robot pushing.",
+                  exit_code);
 }
 
 }  // namespace coins

@@ -141,7 +141,7 @@ TEST(Cli, TheLearnerBenchmarkSamplesFromDdsShardsAndInProcess) {
 }
 
 TEST(Cli, HelpOnEverySubcommand) {
-  for (const char* sub : {"run", "monitor", "bench", "transfer", "experiment transfer", "eval"}) {
+  for (const char* sub : {"run", "monitor", "bench", "transfer", "experiment transfer", "experiment pushing", "eval"}) {
     auto r = RunCommand(Bin("coins") + " " + sub + " --help");
     EXPECT_EQ(r.code, 0) << sub;
     EXPECT_NE(r.output.find("Usage"), std::string::npos) << sub << "\n" << r.output;

@@ -357,5 +357,52 @@ TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
   EXPECT_NE(bad.output.find("unknown variant 'tiny'"), std::string::npos) << bad.output;
 }
 
+// `coins experiment pushing`: vanilla SAC on robot pushing in the same harness, evaluated greedily
+// over the suite's episodes with the goal and penalty fractions in the table; a --chain without
+// a learned Block skill leaves the coins column not run, with the reason
+TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
+  const fs::path dir = TempDir("experiment-pushing");
+  const fs::path chain = dir / "no-chain";
+  fs::create_directories(chain);
+  fs::copy_file(COINS_PUSHING_CONFIG, chain / "config.yaml");
+  const fs::path out = dir / "out";
+  auto r =
+      RunCommand(Bin("coins") + " experiment pushing --chain " + chain.string() +
+                     " --seeds 1 --steps 3000 --eval-episodes 4 --out " + out.string() +
+                     " --set orchestrator.task_learning_starts=1000 --set dds.domain=" + std::to_string(TestDomain()),
+                 std::chrono::seconds(300));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json t = ReadJson(out / "pushing.json");
+  ASSERT_TRUE(t.is_object()) << r.output;
+  EXPECT_EQ(t["suite"], "pushing");
+  const fs::path run = out / "pushing" / "vanilla-seed1";
+  const nlohmann::json summary = ReadJson(run / "summary.json");
+  EXPECT_EQ(summary["phase"], "done");
+  EXPECT_GE(summary["env_steps"].get<uint64_t>(), 3000u);
+  const nlohmann::json final_eval = ReadJson(run / "final-eval.json");
+  ASSERT_TRUE(final_eval.is_object());
+  EXPECT_EQ(final_eval["env"], "pushing");
+  EXPECT_EQ(final_eval["episodes"], 4);
+  EXPECT_EQ(final_eval["explore"], 0.0) << "a sac task is evaluated by its mean action";
+  EXPECT_EQ(final_eval["level"], 1) << "vanilla acts on primitive actions";
+  const nlohmann::json& vanilla = t["variants"]["pushing"]["vanilla"];
+  ASSERT_EQ(vanilla["runs"].size(), 1u);
+  EXPECT_DOUBLE_EQ(vanilla["runs"][0].get<double>(), final_eval["return_mean"].get<double>());
+  EXPECT_LE(vanilla["runs"][0].get<double>(), -30.0 + 1e-3) << "at best -0.1 per step for 300 steps";
+  ASSERT_EQ(vanilla["done_fraction"].size(), 1u);
+  EXPECT_DOUBLE_EQ(vanilla["done_fraction"][0].get<double>(), final_eval["done_fraction"].get<double>());
+  ASSERT_EQ(vanilla["penalty_fraction"].size(), 1u);
+  EXPECT_DOUBLE_EQ(vanilla["penalty_fraction"][0].get<double>(), final_eval["penalty_fraction"].get<double>());
+  EXPECT_DOUBLE_EQ(t["variants"]["pushing"]["paper"]["coins"].get<double>(), -21.6);
+  const nlohmann::json& coins = t["variants"]["pushing"]["coins"];
+  EXPECT_TRUE(coins["runs"].empty());
+  EXPECT_NE(coins["not_run"].get<std::string>().find("no chain state"), std::string::npos) << coins;
+  auto read = ReadFileText((out / "pushing.md").string());
+  ASSERT_TRUE(read.ok()) << read.status().message();
+  const std::string& md = read.value();
+  EXPECT_NE(md.find("| pushing | not run |"), std::string::npos) << md;
+  EXPECT_NE(md.find("episodes reaching the goal"), std::string::npos) << md;
+}
+
 }  // namespace
 }  // namespace coins

@@ -345,6 +345,8 @@ Status Sampler::Sample(const ChunkStore& store, const Priorities& prio, const ms
   bool drawn;
   if (levels && req.level_mask() != 0 && req.strategy() == msg::SAMPLE_UNIFORM)
     drawn = DrawRows(LevelSelector(store, *levels, req.level_mask()), store, req, rng);
+  else if (req.level_mask() != 0 && req.strategy() == msg::SAMPLE_PRIORITIZED)
+    drawn = DrawRows(PrioritizedLevelSelector(store, prio, req.level_mask()), store, req, rng);
   else if (req.strategy() == msg::SAMPLE_PRIORITIZED)
     drawn = DrawRows(PrioritizedSelector(store, prio), store, req, rng);
   else if (req.strategy() == msg::SAMPLE_WEIGHTED)

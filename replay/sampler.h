@@ -76,8 +76,9 @@ class Sampler {
   // does not fit the store (goal_mask longer than the stored goals, ...) or the selection that
   // found no rows.
   // levels (optional): the shard's level index; uniform requests with a level_mask then draw
-  // exactly among the rows of those levels (without it, or for prioritised and weighted
-  // requests, rows of other levels are redrawn, at most SamplerOptions::redraws times)
+  // exactly among the rows of those levels. Prioritised requests with a level_mask draw exactly
+  // among them through prio's per-level masses. Otherwise (no index, weighted requests) rows of
+  // other levels are redrawn, at most SamplerOptions::redraws times.
   Status Sample(const ChunkStore& store, const Priorities& prio, const msg::SampleRequest& req, msg::SampleReply* reply,
                 std::mt19937_64* rng, const LevelIndex* levels = nullptr);
 

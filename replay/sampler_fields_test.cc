@@ -142,6 +142,38 @@ TEST(SamplerFields, LevelMaskOverridesSkillLevel) {
   EXPECT_NE(s.message().find("level_mask 0x20"), std::string::npos) << s.message();
 }
 
+// a chain's new skill level is rare among a shard's rows: a prioritised request for it draws
+// among its rows alone (it used to redraw among all rows and give up)
+TEST(SamplerFields, PrioritisedRequestForARareLevelDrawsOnlyItsRows) {
+  Fixture f;
+  for (uint64_t seq = 0; seq < 5; ++seq) f.Add(testing::MakeRun(seq, 1, 200, float(1000 * seq)));
+  f.Add(testing::MakeRun(5, 2, 3, 9000));  // 3 transitions of level 2 among 1,003
+  msg::SampleRequest q = Request(256);
+  q.strategy(msg::SAMPLE_PRIORITIZED);
+  q.level_mask(1u << 2);
+  Status s = f.Sample(q);
+  ASSERT_TRUE(s.ok()) << s.message();
+  std::set<uint64_t> keys;
+  for (uint32_t i = 0; i < f.reply.n(); ++i) {
+    ASSERT_EQ(f.reply.skill_level()[i], 2);
+    keys.insert(f.reply.key()[i]);
+  }
+  ASSERT_EQ(keys.size(), 3u) << "new rows share the largest priority";
+  // one of the three far above the others: drawn (almost) alone
+  const uint64_t hot = *keys.begin();
+  for (uint64_t k : keys) f.shard.priorities().SetPriority(k, k == hot ? 100.0 : 0.01);
+  s = f.Sample(q);
+  ASSERT_TRUE(s.ok()) << s.message();
+  int hits = 0;
+  for (uint32_t i = 0; i < f.reply.n(); ++i) {
+    ASSERT_TRUE(keys.count(f.reply.key()[i])) << f.reply.key()[i];
+    hits += f.reply.key()[i] == hot;
+  }
+  EXPECT_GT(hits, 230);
+  q.level_mask(1u << 3);
+  EXPECT_NE(f.Sample(q).message().find("no transitions of level_mask 0x8"), std::string::npos);
+}
+
 TEST(SamplerFields, RowColumnsAndPolicyVersionFromProvenance) {
   Fixture f;
   const TestLayout layout{1, 0};

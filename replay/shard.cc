@@ -11,8 +11,9 @@ int64_t ShardMemoryBytes(const ReplayOptions& o) {
   const double arena = double(o.capacity_mb) * 1024 * 1024;
   const double rows = std::min(2.0 * double(o.capacity), arena / 15) + 2.0 * COINS_BATCH_MAX_ROWS;
   // two sum trees of doubles over a power-of-two leaf count (up to 4 nodes a row each) and a
-  // byte a row; chunk descriptors for at most min(2 capacity, arena / 64) chunks
-  const double per_row = 2 * 4 * sizeof(double) + 1;
+  // byte a row, per-level block masses (8 levels x 4 nodes / 256 slots, under a byte a row);
+  // chunk descriptors for at most min(2 capacity, arena / 64) chunks
+  const double per_row = 2 * 4 * sizeof(double) + 2;
   const double chunks = std::min(2.0 * double(o.capacity), arena / 64) + 2;
   const double total = arena + rows * per_row + chunks * double(sizeof(ChunkInfo));
   return total >= 9e18 ? int64_t(9e18) : int64_t(total);
@@ -122,7 +123,7 @@ Shard::Outcome Shard::Store(const TransitionBatch& batch, bool continues, std::s
     return Outcome::kRejected;
   }
   const ChunkInfo& c = store_.chunk(store_.chunks() - 1);
-  prio_.OnInsert(c.row_base, store_.flags(store_.chunks() - 1), c.n_rows);
+  prio_.OnInsert(c.row_base, store_.flags(store_.chunks() - 1), store_.skill_levels(store_.chunks() - 1), c.n_rows);
   levels_.OnInsert(store_, store_.chunks() - 1);
   uint32_t transitions = c.transitions;
   ledger_.Record(batch.actor_id(), transitions, stored_hash);

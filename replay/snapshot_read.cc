@@ -164,7 +164,7 @@ Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter
     COINS_RETURN_IF_ERROR(store.InsertRaw(info, img.data.data() + offset));
     size_t last = store.chunks() - 1;
     const ChunkInfo& held = store.chunk(last);
-    shard->priorities().OnInsert(held.row_base, store.flags(last), held.n_rows);
+    shard->priorities().OnInsert(held.row_base, store.flags(last), store.skill_levels(last), held.n_rows);
     shard->levels().OnInsert(store, last);
     for (uint32_t r = 0; r < held.n_rows; ++r)
       shard->priorities().SetRaw(held.row_base + r, img.priorities[2 * (row + r)], img.priorities[2 * (row + r) + 1]);

@@ -8,6 +8,8 @@
 //                                       transitions/s sampled at batch 256 through the DDS
 //                                       sampling service (ReplayClient <-> coins-replay)
 //   sampler_per_s_{uniform,prioritized}[_her]  the same, in-process (no DDS)
+//   sampler_per_s_prioritized_levels    prioritised, restricted by a level_mask (in-process);
+//   prioritized_levels_ratio            its ratio to the unrestricted prioritised draw
 //   snapshot_write_s, snapshot_mb       a snapshot of 1M transitions (in-process shard)
 //   insert_rate_baseline / insert_rate_during_snapshot, snapshot_insert_ratio
 //   resume_s                            reading and restoring that snapshot
@@ -262,6 +264,27 @@ void SamplerFigures(const Args& a, const std::vector<std::unique_ptr<msg::Transi
     }
     f->AddMedian(std::string("sampler_per_s_") + name, rates, "transitions/s");
   }
+  // prioritised draws restricted to skill levels (a chain's skill trains on its own level)
+  // through the per-level masses, against the unrestricted prioritised draw above
+  std::vector<double> rates;
+  auto q = Request(msg::SAMPLE_PRIORITIZED, false);
+  q.level_mask(0xFF);
+  for (int r = 0; r < a.repeats; ++r) {
+    auto t0 = Clock::now();
+    uint64_t n = 0;
+    while (Since(t0) < a.seconds / 2) {
+      (*s)->Sample(q, &reply, 1s);
+      if (reply.n() == 0) {
+        std::cerr << "coins-bench-replay: level-restricted sampling: " << reply.error() << "\n";
+        return;
+      }
+      n += reply.n();
+    }
+    rates.push_back(double(n) / Since(t0));
+  }
+  f->AddMedian("sampler_per_s_prioritized_levels", rates, "transitions/s");
+  f->Add("prioritized_levels_ratio", f->Get("sampler_per_s_prioritized_levels") / f->Get("sampler_per_s_prioritized"),
+         "x");
 }
 
 int Main(int argc, char** argv) {

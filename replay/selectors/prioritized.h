@@ -32,6 +32,24 @@ class PrioritizedSelector {
   const Priorities& prio_;
 };
 
+// PrioritizedLevelSelector: the prioritised draw among the transitions of some skill levels
+// only (bit L of the mask: level L), through Priorities' per-level masses: P(i) = m_i / (the
+// levels' mass), however rare the levels are among the shard's rows. Exact; kEmpty when the
+// levels have no mass.
+class PrioritizedLevelSelector {
+ public:
+  static constexpr bool kExact = true;
+  PrioritizedLevelSelector(const ChunkStore& store, const Priorities& prio, uint32_t level_mask)
+      : store_(store), prio_(prio), mask_(level_mask), mass_(prio.LevelMass(level_mask)) {}
+  Selected Select(std::mt19937_64* rng, Pick* pick) const;
+
+ private:
+  const ChunkStore& store_;
+  const Priorities& prio_;
+  uint32_t mask_;
+  double mass_;
+};
+
 // weights[i] = (n probs[i])^-beta / max_j (n probs[j])^-beta (spans of the same size; n * p is
 // floored at 1e-12)
 void ImportanceWeights(std::span<const double> probs, double n, double beta, std::span<float> weights);

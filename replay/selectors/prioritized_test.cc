@@ -75,6 +75,68 @@ TEST(PrioritizedSelector, ZeroMassIsEmpty) {
   EXPECT_EQ(selector.Select(&rng, &p), Selected::kEmpty);
 }
 
+// a rare level (4 rows among 400) drawn by priority among its own rows only, with the
+// probability relative to the level's mass; evicted and unprioritised rows leave with their mass
+TEST(PrioritizedLevelSelector, DrawsARareLevelByPriorityAmongItsOwnRows) {
+  Shard shard(0, Options(0.5));
+  ASSERT_EQ(shard.Receive(*MakeRun(0, 1, 200, 0)), Shard::Outcome::kStored);     // rows 1 .. 200: level 1
+  ASSERT_EQ(shard.Receive(*MakeRun(1, 2, 4, 1000)), Shard::Outcome::kStored);    // rows 202 .. 205: level 2
+  ASSERT_EQ(shard.Receive(*MakeRun(2, 1, 200, 2000)), Shard::Outcome::kStored);  // level 1 again
+  const ChunkStore& store = shard.store();
+  // level 2's masses 1, 2, 3, 4 after the exponent; level 1's rows far heavier
+  for (uint64_t row = 202; row <= 205; ++row) shard.priorities().SetPriority(row, double((row - 201) * (row - 201)));
+  for (uint64_t row = 1; row <= 200; ++row) shard.priorities().SetPriority(row, 1e6);
+  EXPECT_NEAR(shard.priorities().LevelMass(1u << 2), 10.0, 1e-9);
+  PrioritizedLevelSelector selector(store, shard.priorities(), 1u << 2);
+  std::mt19937_64 rng(7);
+  std::map<float, int> seen;  // state -> picks
+  std::vector<float> state(1);
+  for (int i = 0; i < 40000; ++i) {
+    Pick p;
+    ASSERT_EQ(selector.Select(&rng, &p), Selected::kRow);
+    ASSERT_EQ(store.skill_levels(p.chunk)[p.row], 2);
+    store.DecodeRow(p.chunk, p.row, state.data());
+    const double k = state[0] - 1000.0;  // 1 .. 4
+    EXPECT_NEAR(p.prob, k / 10.0, 1e-9);
+    seen[state[0]]++;
+  }
+  ASSERT_EQ(seen.size(), 4u);
+  for (const auto& [s, n] : seen) EXPECT_NEAR(n, 4000 * (s - 1000), 250) << "state " << s;
+  // levels 1 and 2 together: level 1 holds almost all the mass
+  PrioritizedLevelSelector both(store, shard.priorities(), (1u << 1) | (1u << 2));
+  int level2 = 0;
+  for (int i = 0; i < 2000; ++i) {
+    Pick p;
+    ASSERT_EQ(both.Select(&rng, &p), Selected::kRow);
+    level2 += store.skill_levels(p.chunk)[p.row] == 2;
+  }
+  EXPECT_LE(level2, 2);
+  Pick p;
+  EXPECT_EQ(PrioritizedLevelSelector(store, shard.priorities(), 1u << 3).Select(&rng, &p), Selected::kEmpty);
+}
+
+TEST(PrioritizedLevelSelector, ALevelsMassLeavesWithItsEvictedRows) {
+  Shard shard(0, Options(1.0));
+  ASSERT_EQ(shard.Receive(*MakeRun(0, 2, 99, 0)), Shard::Outcome::kStored);
+  EXPECT_NEAR(shard.priorities().LevelMass(1u << 2), 99.0, 1e-9) << "new rows: the largest priority, 1";
+  // 45 more batches of level 1 push the ring past 4096 slots: level 2's rows are evicted
+  for (uint64_t s = 1; s < 46; ++s)
+    ASSERT_EQ(shard.Receive(*MakeRun(s, 1, 99, float(100 * s))), Shard::Outcome::kStored);
+  ASSERT_GT(shard.store().first_row(), 100u);
+  EXPECT_NEAR(shard.priorities().LevelMass(1u << 2), 0.0, 1e-9);
+  EXPECT_NEAR(shard.priorities().LevelMass(1u << 1), double(shard.store().transitions()), 1e-6);
+  std::mt19937_64 rng(8);
+  Pick p;
+  EXPECT_EQ(PrioritizedLevelSelector(shard.store(), shard.priorities(), 1u << 2).Select(&rng, &p), Selected::kEmpty);
+  PrioritizedLevelSelector level1(shard.store(), shard.priorities(), 1u << 1);
+  for (int i = 0; i < 1000; ++i) {
+    ASSERT_EQ(level1.Select(&rng, &p), Selected::kRow);
+    const uint64_t row = shard.store().chunk(p.chunk).row_base + p.row;
+    ASSERT_GE(row, shard.store().first_row());
+    ASSERT_EQ(shard.store().skill_levels(p.chunk)[p.row], 1);
+  }
+}
+
 TEST(ImportanceWeights, AreNormalisedByTheBatchMaximum) {
   const std::vector<double> probs = {0.5, 0.25, 0.125};
   std::vector<float> w(3);

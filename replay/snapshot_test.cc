@@ -103,6 +103,13 @@ TEST(Snapshot, RoundTripKeepsDataLedgerPrioritiesAndCounters) {
     int same = 0;
     for (uint32_t i = 0; i < rb.n(); ++i) same += rb.key()[i] == ra.key()[0] && rb.state()[i * 4] == ra.state()[0];
     EXPECT_GT(same, 50);
+    // and so do the per-level masses of prioritised draws restricted to levels
+    q.level_mask(1u << ra.skill_level()[0]);
+    b->Sample(q, &rb, 1s);
+    ASSERT_EQ(rb.status(), msg::SAMPLE_OK) << rb.error();
+    same = 0;
+    for (uint32_t i = 0; i < rb.n(); ++i) same += rb.key()[i] == ra.key()[0];
+    EXPECT_GT(same, 50);
   }
   // the same stream continues: no duplicates, no gaps
   Fill(*b, stream, 2);

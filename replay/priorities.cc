@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 
 #include "idl/transition.h"
 
@@ -31,20 +32,60 @@ void Priorities::AssignSlot(int64_t slot, uint8_t level, double mass) {
   prio_.Set(slot, mass);
 }
 
+namespace {
+
+// sums the block-mass changes of consecutive slots, so that a chunk of rows (consecutive slots,
+// one or two blocks, mostly one level) costs a few block updates rather than one a row
+class BlockMassBatch {
+ public:
+  explicit BlockMassBatch(std::function<void(uint8_t, int64_t, double)> apply) : apply_(std::move(apply)) {}
+  ~BlockMassBatch() { Flush(); }
+  void Add(uint8_t level, int64_t slot, double delta) {
+    const int64_t block = slot / Priorities::kBlock;
+    if (level != level_ || block != block_) {
+      Flush();
+      level_ = level;
+      block_ = block;
+    }
+    delta_ += delta;
+  }
+  void Flush() {
+    if (block_ >= 0 && delta_ != 0) apply_(level_, block_ * Priorities::kBlock, delta_);
+    delta_ = 0;
+  }
+
+ private:
+  std::function<void(uint8_t, int64_t, double)> apply_;
+  uint8_t level_ = 0;
+  int64_t block_ = -1;
+  double delta_ = 0;
+};
+
+}  // namespace
+
 void Priorities::OnInsert(uint64_t row_base, const uint16_t* flags, const uint8_t* levels, uint32_t n) {
   const double p = std::pow(max_priority_, alpha_);
+  BlockMassBatch blocks([this](uint8_t level, int64_t slot, double delta) { AddBlockMass(level, slot, delta); });
   for (uint32_t r = 0; r < n; ++r) {
     int64_t s = Slot(row_base + r);
     bool t = !(flags[r] & msg::ROW_SEGMENT_START);
-    AssignSlot(s, !t ? kNotTransition : levels[r] < kLevels ? levels[r] : kOtherLevel, t ? p : 0.0);
+    // a slot is evicted before it is reused; a level still there leaves with its mass
+    if (level_[size_t(s)] < kLevels) AssignSlot(s, kNotTransition, 0.0);
+    const uint8_t level = !t ? kNotTransition : levels[r] < kLevels ? levels[r] : kOtherLevel;
+    level_[size_t(s)] = level;
+    prio_.Set(s, t ? p : 0.0);
+    if (level < kLevels) blocks.Add(level, s, p);
     if (weight_) weight_->Set(s, t ? 1.0 : 0.0);
   }
 }
 
 void Priorities::OnEvict(uint64_t row_base, uint32_t n) {
+  BlockMassBatch blocks([this](uint8_t level, int64_t slot, double delta) { AddBlockMass(level, slot, delta); });
   for (uint32_t r = 0; r < n; ++r) {
     int64_t s = Slot(row_base + r);
-    AssignSlot(s, kNotTransition, 0.0);
+    if (level_[size_t(s)] < kLevels) blocks.Add(level_[size_t(s)], s, -prio_.Get(s));
+    level_[size_t(s)] = kNotTransition;
+    prio_.Set(s, 0.0);
     if (weight_) weight_->Set(s, 0.0);
   }
 }

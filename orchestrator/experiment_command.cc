@@ -31,14 +31,15 @@ using nlohmann::json;
 
 // what one experiment compares: its variants (envs), methods and the paper's numbers
 struct Suite {
-  std::string name;                  // the subcommand; the tables' file names
-  std::string title;                 // the tables' heading
-  std::string env_prefix;            // a variant's env: prefix + variant
-  std::string skill;                 // the chain's top skill the coins method's task acts through
-  std::string pretrain_env;          // finetune's pre-training env ("": no finetune method)
-  std::vector<std::string> methods;  // known methods, in the tables' order
-  int64_t eval_episodes;             // the final evaluation's episodes by default
-  std::string eval_explore;          // `coins eval --explore` of the final evaluation ("": the run's)
+  std::string name;                   // the subcommand; the tables' file names
+  std::string title;                  // the tables' heading
+  std::string env_prefix;             // a variant's env: prefix + variant
+  std::string skill;                  // the chain's top skill the coins method's task acts through
+  std::string pretrain_env;           // finetune's pre-training env ("": no finetune method)
+  std::vector<std::string> variants;  // known variants, in the tables' order
+  std::vector<std::string> methods;   // known methods, in the tables' order
+  int64_t eval_episodes;              // the final evaluation's episodes by default
+  std::string eval_explore;           // `coins eval --explore` of the final evaluation ("": the run's)
   std::map<std::string, std::map<std::string, double>> paper;  // variant -> method -> final return
 };
 
@@ -49,6 +50,7 @@ const Suite& TransferSuite() {
                        "breakout-",
                        "Ball",
                        "breakout",
+                       {"single", "hard", "big", "neg", "center", "prox"},
                        {"coins", "vanilla", "finetune"},
                        20,
                        "",
@@ -69,6 +71,7 @@ const Suite& PushingSuite() {
                        "",
                        "Block",
                        "",
+                       {"pushing"},
                        {"coins", "vanilla"},
                        50,
                        "0",
@@ -82,12 +85,6 @@ std::string Known(const std::vector<std::string>& names) {
   std::string out;
   for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
   return out;
-}
-
-std::vector<std::string> Variants(const Suite& s) {
-  std::vector<std::string> v;
-  for (const auto& [name, _] : s.paper) v.push_back(name);
-  return v;
 }
 
 struct Cell {
@@ -225,6 +222,13 @@ std::string PercentCell(const std::vector<double>& fractions) {
   return fmt::format(" {:.1f} +- {:.1f}% |", 100 * mean, 100 * sd);
 }
 
+// mean over vanilla's runs of their last periodic evaluation (a run without one: its final)
+double VanillaCurveFinal(const Cell& vanilla) {
+  std::vector<double> last;
+  for (const RunResult& r : vanilla.runs) last.push_back(r.curve.empty() ? r.final_return : r.curve.back().second);
+  return MeanSd(last).first;
+}
+
 // env steps of the first evaluation at or above `level`, per run (nullopt: never)
 json StepsToReach(const Cell& c, double level) {
   json per_run = json::array();
@@ -281,7 +285,7 @@ std::string TableHeader(const ExperimentFlags& f, bool fractions) {
   size_t columns = 3 * f.methods.size();
   for (const auto& m : f.methods) md += fmt::format(" {} |", m);
   for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
-  for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final |", m);
+  for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final (periodic evals) |", m);
   if (fractions) {
     for (const auto& m : f.methods) md += fmt::format(" {}: episodes reaching the goal |", m);
     for (const auto& m : f.methods) md += fmt::format(" {}: steps in penalty regions |", m);
@@ -312,7 +316,10 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
   for (const auto& v : f.variants) {
     const auto& row = cells.at(v);
     const bool has_vanilla = row.count("vanilla") && !row.at("vanilla").finals.empty();
-    const double level = has_vanilla ? row.at("vanilla").mean : NAN;
+    // the level is vanilla's final return as its periodic evaluations measured it (the curves
+    // are those evaluations, so a method is compared with vanilla on one measurement)
+    const double level = has_vanilla ? VanillaCurveFinal(row.at("vanilla")) : NAN;
+    if (has_vanilla) j["variants"][v]["vanilla_final_periodic"] = level;
     md += "| " + v + " |";
     for (const auto& m : f.methods) {
       const Cell& c = row.at(m);
@@ -348,10 +355,11 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
 Status Check(ExperimentFlags& f) {
   const Suite& suite = SuiteNamed(f.suite);
   if (!fs::exists(fs::path(f.chain) / "config.yaml")) return Errorf("--chain {}: not a run directory", f.chain);
-  if (f.variants.empty()) f.variants = Variants(suite);
+  if (f.variants.empty()) f.variants = suite.variants;
   if (f.methods.empty()) f.methods = suite.methods;
   for (const auto& v : f.variants)
-    if (!suite.paper.count(v)) return Errorf("--variants: unknown variant '{}' (known: {})", v, Known(Variants(suite)));
+    if (std::find(suite.variants.begin(), suite.variants.end(), v) == suite.variants.end())
+      return Errorf("--variants: unknown variant '{}' (known: {})", v, Known(suite.variants));
   for (const auto& m : f.methods)
     if (std::find(suite.methods.begin(), suite.methods.end(), m) == suite.methods.end())
       return Errorf("--methods: unknown method '{}' (known: {})", m, Known(suite.methods));
@@ -440,7 +448,7 @@ void AddSuiteCommand(CLI::App* exp, const Suite& suite, const std::string& help,
   CLI::App* t = exp->add_subcommand(suite.name, help);
   t->add_option("--chain", f->chain, fmt::format("run directory of a learned chain (with its {} skill)", suite.skill))
       ->required();
-  t->add_option("--variants", f->variants, fmt::format("variants (default: {})", Known(Variants(suite))))
+  t->add_option("--variants", f->variants, fmt::format("variants (default: {})", Known(suite.variants)))
       ->delimiter(',');
   t->add_option("--methods", f->methods, fmt::format("methods (default: {})", Known(suite.methods)))->delimiter(',');
   t->add_option("--seeds", f->seeds, "seeds per variant and method")->check(CLI::Range(1, 100));

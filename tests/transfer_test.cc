@@ -19,6 +19,7 @@
 #include "orchestrator/chain_messages.h"
 #include "orchestrator/chain_store.h"
 #include "orchestrator/config_values.h"
+#include "orchestrator/experiment_command.h"
 #include "orchestrator/system_config.h"
 #include "tests/process_harness.h"
 
@@ -333,6 +334,15 @@ TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
     EXPECT_DOUBLE_EQ(cell["runs"][0].get<double>(), final_eval["return_mean"].get<double>()) << m;
   }
   EXPECT_DOUBLE_EQ(t["variants"]["single"]["paper"]["coins"].get<double>(), -3.2);
+  // a method's steps to vanilla's final are counted on one measurement: the periodic evaluations
+  // (a run this short has none: its final evaluation stands in)
+  auto vanilla = ReadRunResult((out / "single" / "vanilla-seed1").string());
+  ASSERT_TRUE(vanilla.ok());
+  const double vanilla_last = vanilla->curve.empty() ? t["variants"]["single"]["vanilla"]["runs"][0].get<double>()
+                                                     : vanilla->curve.back().second;
+  EXPECT_DOUBLE_EQ(t["variants"]["single"]["vanilla_final_periodic"].get<double>(), vanilla_last);
+  EXPECT_EQ(t["variants"]["single"]["vanilla"]["steps_to_vanilla_final"][0].is_null(), vanilla->curve.empty())
+      << "vanilla reaches its own last periodic evaluation";
   EXPECT_TRUE(fs::exists(out / "transfer.md"));
   EXPECT_TRUE(fs::exists(out / "single" / "coins-seed1" / "transfer.json")) << "the coins column is a transfer";
   EXPECT_FALSE(fs::exists(out / "single" / "vanilla-seed1" / "transfer.json"));

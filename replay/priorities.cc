@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <functional>
 
 #include "idl/transition.h"
 
@@ -36,9 +35,10 @@ namespace {
 
 // sums the block-mass changes of consecutive slots, so that a chunk of rows (consecutive slots,
 // one or two blocks, mostly one level) costs a few block updates rather than one a row
+template <class Apply>
 class BlockMassBatch {
  public:
-  explicit BlockMassBatch(std::function<void(uint8_t, int64_t, double)> apply) : apply_(std::move(apply)) {}
+  explicit BlockMassBatch(Apply apply) : apply_(apply) {}
   ~BlockMassBatch() { Flush(); }
   void Add(uint8_t level, int64_t slot, double delta) {
     const int64_t block = slot / Priorities::kBlock;
@@ -55,7 +55,7 @@ class BlockMassBatch {
   }
 
  private:
-  std::function<void(uint8_t, int64_t, double)> apply_;
+  Apply apply_;
   uint8_t level_ = 0;
   int64_t block_ = -1;
   double delta_ = 0;

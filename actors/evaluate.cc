@@ -44,6 +44,8 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   std::vector<float> state(dim), next(dim), action(size_t(env.spec().action.dim));
   EvalResult r;
   const int skill_level = task ? acting - 1 : acting;
+  const HierarchyCounters& counts = runner.counters();
+  auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] - r.goals_cut_by_win : 0; };
   for (int ep = 0; ep < (task ? o.episodes : 1 << 30); ++ep) {
     env.Reset(o.seed + uint64_t(ep), state);
     runner.StartEpisode(state, &rows);
@@ -56,7 +58,14 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       const auto t1 = Clock::now();
       COINS_RETURN_IF_ERROR(env.Step(action, next, &sr).WithContext("evaluate"));
       const auto t2 = Clock::now();
+      const uint64_t ended_before = ended(),
+                     interacted_before = skill_level >= 1 ? counts.goals_interacted[skill_level - 1] : 0;
       runner.Observe(state, action, next, sr.reward, sr.done || sr.truncated, sr.truncated, sr.interactions, &rows);
+      // a goal that an episode end with a positive reward cut before its interaction (the last
+      // block broken, the board cleared) had no chance to be met: not an attempt
+      if (sr.done && !sr.truncated && sr.reward > 0 && ended() > ended_before &&
+          counts.goals_interacted[skill_level - 1] == interacted_before)
+        ++r.goals_cut_by_win;
       r.control_seconds += Seconds(t0, Clock::now());
       r.env_seconds += Seconds(t1, t2);
       if (on_step) on_step({ep, state, action, next, &sr});
@@ -66,7 +75,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       if (task && !env.spec().penalty_means.empty() && sr.reward <= env.spec().penalty_reward) ++r.penalty_steps;
       over = sr.done || sr.truncated;
       std::swap(state, next);
-      if (!task && runner.counters().goals_ended[skill_level - 1] >= uint64_t(o.episodes)) break;
+      if (!task && ended() >= uint64_t(o.episodes)) break;
       if (!task && over) {
         env.ResetNext(state);
         runner.StartEpisode(state, &rows);
@@ -78,9 +87,9 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
     if (!task) break;
   }
   if (skill_level >= 1) {
-    r.goals_ended = runner.counters().goals_ended[skill_level - 1];
-    r.goals_reached = runner.counters().goals_reached[skill_level - 1];
-    r.goals_interacted = runner.counters().goals_interacted[skill_level - 1];
+    r.goals_ended = ended();
+    r.goals_reached = counts.goals_reached[skill_level - 1];
+    r.goals_interacted = counts.goals_interacted[skill_level - 1];
     r.success = r.goals_ended ? double(r.goals_reached) / double(r.goals_ended) : 0.0;
     r.hit_rate = r.goals_ended ? double(r.goals_interacted) / double(r.goals_ended) : 0.0;
     r.accuracy = r.goals_interacted ? double(r.goals_reached) / double(r.goals_interacted) : 0.0;

@@ -35,9 +35,12 @@ struct EvalResult {
   double return_mean = 0, return_sd = 0;
   uint64_t goals_ended = 0, goals_reached = 0;  // the acting skill's (task: the top skill's)
   uint64_t goals_interacted = 0;                // of the goals ended, those ended by a link interaction
-  double success = 0;                           // goals_reached / goals_ended
-  double hit_rate = 0;                          // goals_interacted / goals_ended
-  double accuracy = 0;                          // goals_reached / goals_interacted (the angle, given a bounce)
+  // goals an episode end with a positive reward cut before any interaction (Breakout: the ball
+  // skill's goal when the last block breaks); not attempts, so not in goals_ended
+  uint64_t goals_cut_by_win = 0;
+  double success = 0;   // goals_reached / goals_ended
+  double hit_rate = 0;  // goals_interacted / goals_ended
+  double accuracy = 0;  // goals_reached / goals_interacted (the angle, given a bounce)
   int64_t steps = 0;
   int64_t episodes_done = 0;  // task: episodes the env ended as terminal (EnvSpec::done_means)
   int64_t penalty_steps = 0;  // task: steps whose reward was a penalty (EnvSpec::penalty_means)

@@ -9,6 +9,7 @@
 
 #include "actors/actor.h"
 #include "actors/envs/env.h"
+#include "actors/evaluate.h"
 #include "idl/transition.h"
 
 namespace coins {
@@ -217,6 +218,35 @@ TEST(Hierarchy, EvaluationEpsilonRandomisesOnlyTheActingLevel) {
     const double expected = 1.0 - eps + eps / 3.0;
     EXPECT_NEAR(GreedyShare(models, rec, 2, 2), expected, eps > 0 ? 0.1 : 0.0) << eps;
   }
+}
+
+// a skill evaluation does not count as failed the goals that an episode end with a positive
+// reward cut (breakout-single ends when its block breaks): those goals had no chance; a goal
+// cut by a drop (-10) still counts, as a goal without its bounce
+TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttempts) {
+  auto env = envs::MakeEnv("breakout-single");
+  ASSERT_TRUE(env.ok()) << env.status().message();
+  const envs::EnvSpec& spec = (*env)->spec();
+  policy::LevelSpec ball = Ball(spec);
+  ball.require_interaction = ball.terminate_on_interaction = true;  // an interaction goal, as in a chain
+  const HierarchyModels models = Models({Paddle(spec), ball});
+  int wins = 0, losses = 0;
+  EvalOptions o;
+  o.episodes = 300;  // goals
+  o.max_steps = 1'000'000;
+  o.seed = 5;
+  auto r = Evaluate(**env, models, 2, o, [&](const EvalStep& s) {
+    wins += s.result->done && s.result->reward > 0;
+    losses += s.result->done && s.result->reward < 0;
+  });
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  ASSERT_GT(wins, 0) << "random play breaks the single block now and then";
+  ASSERT_GT(losses, 0);
+  // no detector here: goals end by the timeout or by the episode's end, never by a bounce
+  EXPECT_EQ(r->goals_cut_by_win, uint64_t(wins));
+  EXPECT_EQ(r->goals_interacted, 0u);
+  EXPECT_EQ(r->goals_ended, uint64_t(o.episodes));
+  EXPECT_GE(r->goals_ended, uint64_t(losses));
 }
 
 }  // namespace

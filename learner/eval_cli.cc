@@ -107,6 +107,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                       {"return_sd", r.return_sd},
                       {"returns", r.returns},
                       {"goals", r.goals_ended},
+                      {"goals_cut_by_win", r.goals_cut_by_win},
                       {"success", r.success},
                       {"steps", r.steps},
                       {"steps_per_s", r.control_seconds > 0 ? r.steps / r.control_seconds : 0.0},
@@ -144,8 +145,11 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                              100.0 * j["penalty_fraction"].get<double>(), r.steps)
               << "\n";
   if (!skill.is_task())  // a task over primitive actions has no goals below it
-    std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps", skill.name, 100.0 * r.success,
-                             r.goals_reached, r.goals_ended, r.steps)
+    std::cout << fmt::format("  {} goals: {:.1f}% reached ({} of {}), {} env steps{}", skill.name, 100.0 * r.success,
+                             r.goals_reached, r.goals_ended, r.steps,
+                             r.goals_cut_by_win
+                                 ? fmt::format(" ({} more cut by a won episode end, not counted)", r.goals_cut_by_win)
+                                 : std::string())
               << "\n";
   if (skill.require_interaction)
     std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",

@@ -30,7 +30,9 @@ TEST(Discovery, BadServerEntriesAreNamed) {
                           "10.0.0.3:11811,", "1.2.3:11811"}) {
     auto s = ParseServers(bad);
     EXPECT_FALSE(s.ok()) << bad;
-    if (!s.ok()) EXPECT_NE(s.status().message().find('\''), std::string::npos) << s.status().message();
+    if (!s.ok()) {
+      EXPECT_NE(s.status().message().find('\''), std::string::npos) << s.status().message();
+    }
   }
   auto p = ParsePeers("10.0.0.1,host2");
   ASSERT_FALSE(p.ok());

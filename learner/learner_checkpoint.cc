@@ -11,6 +11,7 @@
 #include "common/nn/serialize.h"
 #include "common/policy/weights_msg.h"
 #include "learner/learner_core.h"
+#include "learner/trainers/input_remap.h"
 #include "learner/trainers/level_builder.h"
 
 namespace coins {
@@ -201,6 +202,29 @@ Status LearnerCore::KeepSkillsFor(const envs::EnvSpec& target, const std::vector
   return Status::Ok();
 }
 
+namespace {
+
+// the trained task's state into `fresh`, re-laid when the target observes more features
+// (learner/trainers/input_remap.h)
+Status ImportTrainedTask(const PolicyTrainer& trained, const envs::EnvSpec& trained_env, const envs::EnvSpec& target,
+                         PolicyTrainer* fresh) {
+  const rl::AlgorithmState st = trained.ExportState();
+  if (fresh->ImportState(st).ok()) return Status::Ok();
+  auto fail = [&](const std::string& why) {
+    return Errorf(
+        "the task network trained on {} does not fit {} ({}{})", trained_env.name, target.name, why,
+        trained.spec().pair.enabled() ? "" : "; a pair network over the blocks, learner.task_pair_hidden, would");
+  };
+  auto input_of = MatchNetworkInputs(trained.spec(), trained_env, fresh->spec(), target);
+  if (!input_of.ok()) return fail(input_of.status().message());
+  auto relaid = RelayInputs(st, fresh->ExportState(), *input_of);
+  if (!relaid.ok()) return fail(relaid.status().message());
+  if (Status s = fresh->ImportState(*relaid); !s.ok()) return fail(s.message());
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status LearnerCore::KeepTaskFor(const envs::EnvSpec& target) {
   PolicyTrainer* old = trainer(1);
   if (!old || !old->spec().is_task())
@@ -210,11 +234,7 @@ Status LearnerCore::KeepTaskFor(const envs::EnvSpec& target) {
   if (!spec.ok()) return spec.status().WithContext("the task in " + target.name);
   auto fresh = PolicyTrainer::Create(*spec, options_.task, seed_ + 1000);
   if (!fresh.ok()) return fresh.status();
-  const rl::AlgorithmState st = old->ExportState();
-  if (Status s = (*fresh)->ImportState(st); !s.ok())
-    return Errorf(
-        "the task network trained on {} does not fit {} ({}{})", env_.name, target.name, s.message(),
-        old->spec().pair.enabled() ? "" : "; a pair network over the blocks, learner.task_pair_hidden, would");
+  COINS_RETURN_IF_ERROR(ImportTrainedTask(*old, env_, target, fresh->get()));
   trainers_.clear();
   trainers_[1] = std::move(*fresh);
   detectors_.clear();

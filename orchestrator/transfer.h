@@ -14,7 +14,8 @@
 //
 // From a run without a chain (orchestrator.chain none, the vanilla baseline) the transfer is a
 // fine-tuning: the new run continues training that run's task policy on the new env (it needs a
-// network that fits both, e.g. the pair network over the blocks, learner.task_pair_hidden).
+// network that fits both, e.g. the pair network over the blocks, learner.task_pair_hidden; inputs
+// the new env adds, like breakout-prox's Target, start with zero weights: input_remap.h).
 //
 // Refused before anything starts, with one line: a RUN_DIR that is not a run or whose chain has
 // no learned --skill skill, an unknown env, an env whose factors do not match the chain's.

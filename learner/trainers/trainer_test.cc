@@ -6,6 +6,7 @@
 #include "actors/envs/env.h"
 #include "common/nn/serialize.h"
 #include "common/policy/policy_net.h"
+#include "learner/trainers/input_remap.h"
 #include "learner/trainers/level_builder.h"
 #include "learner/trainers/policy_trainer.h"
 
@@ -189,6 +190,102 @@ TEST(LevelBuilder, PushingTaskPairNetworkOverTheObstacles) {
     net->Act(obs.data(), 0.0f, &rng, a2.data());
     EXPECT_NE(a, a2);
   }
+}
+
+// fine-tuning a vanilla task trained on base Breakout in breakout-prox, which adds a Target
+// factor: the re-laid network keeps every trained input weight, gives the target's inputs zero
+// weights and zero optimiser moments, and so computes exactly what the trained one did
+TEST(InputRemap, ABreakoutTaskNetworkReLaidForProxComputesTheSameValues) {
+  Breakout b;
+  auto prox_env = envs::MakeEnv("breakout-prox");
+  ASSERT_TRUE(prox_env.ok());
+  const envs::EnvSpec& prox = (*prox_env)->spec();
+  LearnerOptions o;
+  o.task.pair_hidden = {16, 16};
+  auto from = BuildPrimitiveTaskSpec(b.spec, o.task);
+  auto to = BuildPrimitiveTaskSpec(prox, o.task);
+  ASSERT_TRUE(from.ok() && to.ok());
+  const std::vector<std::string> names = NetworkInputNames(*to, prox);
+  auto input_of = MatchNetworkInputs(*from, b.spec, *to, prox);
+  ASSERT_TRUE(input_of.ok()) << input_of.status().message();
+  ASSERT_EQ(input_of->size(), names.size());
+  const std::vector<std::string> old_names = NetworkInputNames(*from, b.spec);
+  int fresh_inputs = 0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    const bool target = names[i].find("Target") != std::string::npos;
+    fresh_inputs += target;
+    if (target) {
+      EXPECT_EQ((*input_of)[i], -1) << names[i];
+    } else {
+      ASSERT_GE((*input_of)[i], 0) << names[i];
+      EXPECT_EQ(old_names[size_t((*input_of)[i])], names[i]);
+    }
+  }
+  EXPECT_EQ(fresh_inputs, 5 + 4) << "Target's features, and the paddle's and ball's y, x relative to it";
+  EXPECT_NE(std::find(names.begin(), names.end(), "Block.x"), names.end()) << "a point's instance features";
+
+  auto trained = PolicyTrainer::Create(*from, o.task, 3);
+  auto fresh = PolicyTrainer::Create(*to, o.task, 4);
+  ASSERT_TRUE(trained.ok() && fresh.ok());
+  rl::AlgorithmState st = (*trained)->ExportState();
+  ASSERT_FALSE((*fresh)->ImportState(st).ok()) << "the shapes differ";
+  std::mt19937_64 rng(9);
+  std::normal_distribution<float> normal;
+  for (auto& set : st.sets)  // optimiser moments as if trained: every value non-zero
+    if (set.blocks().size() == 1)
+      for (Eigen::Index i = 0; i < set.values.size(); ++i) set.values[i] = 1.0f + std::abs(normal(rng));
+  auto relaid = RelayInputs(st, (*fresh)->ExportState(), *input_of);
+  ASSERT_TRUE(relaid.ok()) << relaid.status().message();
+  ASSERT_TRUE((*fresh)->ImportState(*relaid).ok());
+  // the first layer's columns: trained ones moved, the target's zero, in weights and moments
+  for (const auto& set : relaid->sets) {
+    const Eigen::Map<const Eigen::MatrixXf> w(set.values.data(), 16, Eigen::Index(names.size()));
+    for (size_t c = 0; c < names.size(); ++c)
+      if ((*input_of)[c] < 0) {
+        EXPECT_EQ(w.col(Eigen::Index(c)).norm(), 0.0f) << set.blocks().front().name << names[c];
+      }
+  }
+  for (size_t s = 0; s < st.sets.size(); ++s)
+    if (st.sets[s].blocks().size() == 1) {
+      EXPECT_EQ((relaid->sets[s].values.array() == 0).count(), 16 * fresh_inputs) << "moments of new inputs only";
+    }
+
+  // the same board seen by both: prox's state, and base Breakout's with its first 60 blocks
+  // those of prox and the other 40 broken
+  auto old_net = policy::PolicyNet::Create(*from);
+  auto new_net = policy::PolicyNet::Create(*to);
+  ASSERT_TRUE(old_net->Load((*trained)->ActingBlob(), "trained").ok());
+  ASSERT_TRUE(new_net->Load((*fresh)->ActingBlob(), "relaid").ok());
+  std::vector<float> ps(size_t(prox.state_dim())), bs(size_t(b.spec.state_dim()), 0.0f);
+  (*prox_env)->Reset(5, ps);
+  for (const char* f : {"Paddle", "Ball"}) {
+    const int po = prox.factor_offset(prox.factor_index(f)), bo = b.spec.factor_offset(b.spec.factor_index(f));
+    std::copy_n(ps.begin() + po, 5, bs.begin() + bo);
+  }
+  std::copy_n(ps.begin() + prox.factor_offset(prox.factor_index("Block")), 60 * 5,
+              bs.begin() + b.spec.factor_offset(b.spec.factor_index("Block")));
+  auto q = [&](policy::PolicyNet& net, const std::vector<float>& state) {
+    const policy::LevelSpec& spec = net.spec();
+    std::vector<float> features(spec.obs_index.size()), obs(size_t(spec.obs_dim()));
+    policy::GatherFeatures(spec, state.data(), features.data());
+    policy::BuildObservation(spec, features.data(), nullptr, obs.data());
+    float a = 0;
+    net.Act(obs.data(), 0.0f, &rng, &a);
+    return Eigen::VectorXf(net.last_q());
+  };
+  const Eigen::VectorXf before = q(*old_net, bs);
+  EXPECT_LT((q(*new_net, ps) - before).norm(), 1e-5f * (1.0f + before.norm()));
+  const int target = prox.factor_offset(prox.factor_index("Target"));
+  ps[size_t(target) + 1] += 20.0f;  // the target moves: no input weight reads it yet
+  EXPECT_LT((q(*new_net, ps) - before).norm(), 1e-5f * (1.0f + before.norm()));
+
+  // the other way, prox's network onto base Breakout, would drop the target's inputs: refused
+  auto back = MatchNetworkInputs(*to, prox, *from, b.spec);
+  ASSERT_FALSE(back.ok());
+  EXPECT_NE(back.status().message().find(
+                "input Target.y of the network trained on breakout-prox is not observed in breakout"),
+            std::string::npos)
+      << back.status().message();
 }
 
 }  // namespace

@@ -80,8 +80,8 @@ std::string RunRoles::Describe() const {
   for (const auto& role : roles) {
     out += out.empty() ? "" : ", ";
     out += role;
-    if (role == "actors") out += " " + Range(actor_ids);
-    if (role == "replay") out += " " + Range(shard_ids);
+    if (role == "actors") out.append(" ").append(Range(actor_ids));
+    if (role == "replay") out.append(" ").append(Range(shard_ids));
   }
   return out;
 }

@@ -44,13 +44,13 @@ void Fill(ReplayService& s, TestStream& stream, int batches) {
 }
 
 // xors the byte at `at` of the file with mask
-void FlipBits(const fs::path& path, uint64_t at, char mask) {
+void FlipBits(const fs::path& path, uint64_t at, uint8_t mask) {
   std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
   f.seekg(std::streamoff(at));
   char c;
   f.get(c);
   f.seekp(std::streamoff(at));
-  f.put(char(c ^ mask));
+  f.put(char(uint8_t(c) ^ mask));
 }
 
 TEST(Snapshot, RoundTripKeepsDataLedgerPrioritiesAndCounters) {
@@ -205,7 +205,9 @@ TEST(Snapshot, AShardTooLargeForTheMachineIsRefusedBeforeItAllocates) {
   // the transition capacity counts too (its indexes)
   o.capacity = int64_t(1) << 34;
   o.capacity_mb = 16384;
-  if (PhysicalMemoryBytes() < (int64_t(1) << 40)) EXPECT_FALSE(o.Validate().ok());
+  if (PhysicalMemoryBytes() < (int64_t(1) << 40)) {
+    EXPECT_FALSE(o.Validate().ok());
+  }
 }
 
 TEST(Snapshot, ConfigThatDiffersIsReportedAndTheNewOneWinsOnlyWhenAsked) {

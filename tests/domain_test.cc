@@ -85,7 +85,9 @@ TEST(TestDomains, AChildKeepsTheDomainAfterItsParentLetsGo) {
   { auto gone = std::move(*lease); }  // the parent lets go; the child still holds the descriptor
   auto again = dds::DomainLease::AcquireExactly(domain);
   EXPECT_FALSE(again.ok()) << "a domain was handed out while a process started on it was alive";
-  if (!again.ok()) EXPECT_NE(again.status().message().find("in use"), std::string::npos) << again.status().message();
+  if (!again.ok()) {
+    EXPECT_NE(again.status().message().find("in use"), std::string::npos) << again.status().message();
+  }
   close(hold[1]);
   int status = 0;
   ASSERT_EQ(waitpid(child, &status, 0), child);

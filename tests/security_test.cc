@@ -78,7 +78,7 @@ TEST(Security, InitWritesACaIdentitiesAndSignedDocuments) {
   const fs::path base = TempDir("security-init");
   const fs::path dir = InitSecurity(base);
   for (const char* role : {"actor", "replay", "learner", "orchestrator", "monitor", "operator"}) {
-    for (const std::string f :
+    for (const std::string& f :
          {std::string(role) + ".pem", std::string(role) + ".key", std::string(role) + "-permissions.p7s"})
       EXPECT_TRUE(fs::exists(dir / f)) << f;
     auto v = RunCommand("openssl verify -CAfile " + (dir / "ca.pem").string() + " " +

@@ -87,7 +87,7 @@ std::vector<uint8_t> ToBlob(std::span<const ParamSet* const> sets) {
   }
   std::vector<uint8_t> out;
   out.reserve(64 + blocks * 32 + floats * 4);
-  out.insert(out.end(), kMagic, kMagic + 4);
+  for (int i = 0; i < 4; ++i) out.push_back(uint8_t(kMagic[i]));
   Put<uint32_t>(&out, kWeightsVersion);
   Put<uint32_t>(&out, uint32_t(blocks));
   for (const ParamSet* p : sets)

@@ -102,7 +102,9 @@ TEST(InProcessSource, PriorityUpdatesReachTheKeysShard) {
     if (KeyShard(c.key[i]) == 1) {
       shard1++;
       hits += c.key[i] == hot;
-      if (c.key[i] != hot) EXPECT_FLOAT_EQ(c.weight[i], 1.0f);
+      if (c.key[i] != hot) {
+        EXPECT_FLOAT_EQ(c.weight[i], 1.0f);
+      }
     }
   EXPECT_GT(shard1, 150);
   EXPECT_GT(hits, shard1 * 9 / 10);

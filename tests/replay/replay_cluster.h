@@ -4,6 +4,8 @@
 
 #include <signal.h>
 
+#include <utility>
+
 #include <gtest/gtest.h>
 
 #include "common/dds/node.h"
@@ -14,6 +16,8 @@
 namespace coins::testing {
 
 struct ReplayCluster {
+  ReplayCluster(std::filesystem::path dir_, int domain_) : dir(std::move(dir_)), domain(domain_) {}
+
   std::filesystem::path dir;
   int domain;
   int shards_n = 2, actors_n = 2;

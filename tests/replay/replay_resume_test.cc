@@ -87,7 +87,9 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   const auto& a = shard["actors"][0];
   // every stored byte hashes to the ledger: the snapshot's part (snap_checksum) plus what came
   // after (when the actor was fast enough to fill the shard, eviction makes this moot)
-  if (a["stored_transitions"] == a["transitions"]) EXPECT_EQ(a["stored_checksum"], a["payload_checksum"]);
+  if (a["stored_transitions"] == a["transitions"]) {
+    EXPECT_EQ(a["stored_checksum"], a["payload_checksum"]);
+  }
   EXPECT_GT(a["transitions"].get<uint64_t>(), snap_transitions);
   EXPECT_NE(a["payload_checksum"].get<uint64_t>(), snap_checksum);
   // what the shard lost between its snapshot and its restart shows up as gaps, never twice; the
@@ -291,8 +293,9 @@ TEST(ReplayResume, TheActorResumesByItselfAfterEveryShardKill) {
   ASSERT_FALSE(shard.is_null());
   ASSERT_FALSE(actor.is_null());
   EXPECT_EQ(shard["actors"][0]["next_seq"], actor["batches"]);
-  if (shard["actors"][0]["stored_transitions"] == shard["actors"][0]["transitions"])
+  if (shard["actors"][0]["stored_transitions"] == shard["actors"][0]["transitions"]) {
     EXPECT_EQ(shard["actors"][0]["stored_checksum"], shard["actors"][0]["payload_checksum"]);
+  }
 }
 
 }  // namespace

@@ -50,9 +50,7 @@ void ExpectStreamSamples(const SampleColumns& c, int64_t last_t, int* relabelled
 }
 
 TEST(ReplaySampling, FeatureSubsetLevelMaskedGoalRequestsRoundTripThroughShards) {
-  ReplayCluster c;
-  c.dir = TempDir("replay-goal-sampling");
-  c.domain = TestDomain(51);
+  ReplayCluster c{TempDir("replay-goal-sampling"), TestDomain(51)};
   c.StartShards();
   c.Join();
   int64_t transitions[2];

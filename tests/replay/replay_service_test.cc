@@ -117,7 +117,9 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
       10s))
       << "priority updates did not take effect (" << hits << " hot samples)";
   for (int j = 0; j < 256; ++j)
-    if (!hot_set.count(batch.keys[size_t(j)])) EXPECT_FLOAT_EQ(batch.weights(0, j), 1.0f);
+    if (!hot_set.count(batch.keys[size_t(j)])) {
+      EXPECT_FLOAT_EQ(batch.weights(0, j), 1.0f);
+    }
 
   // hindsight: goals relabelled from the segment, rewards recomputed for them
   client->options().strategy = msg::SAMPLE_UNIFORM;
@@ -137,7 +139,9 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
     bool hit = dist <= 0.5f;
     reached += hit;
     EXPECT_EQ(batch.rewards(0, j), hit ? 0.0f : -1.0f) << "sample " << j;
-    if (hit) EXPECT_EQ(batch.discounts(0, j), 0.0f);
+    if (hit) {
+      EXPECT_EQ(batch.discounts(0, j), 0.0f);
+    }
   }
   EXPECT_GT(reached, 0);
 
@@ -378,7 +382,9 @@ TEST(ReplayService, OneBatchFarAheadDoesNotPoisonTheActorsLaterBatches) {
   // the same batch is written again, as an actor does
   auto write = [&](const TransitionBatch& b) { return WaitUntil([&] { return writer->Write(b); }, 20s); };
   for (uint64_t seq = 0; seq < n; ++seq) {
-    if (seq == 100) ASSERT_TRUE(write(*make(4'000'000'000ull)));  // well formed, its hash intact
+    if (seq == 100) {
+      ASSERT_TRUE(write(*make(4'000'000'000ull)));  // well formed, its hash intact
+    }
     auto b = make(seq);
     sent += b->payload_hash();
     ASSERT_TRUE(write(*b));

@@ -63,7 +63,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       runner.Observe(state, action, next, sr.reward, sr.done || sr.truncated, sr.truncated, sr.interactions, &rows);
       // a goal that an episode end with a positive reward cut before its interaction (the last
       // block broken, the board cleared) had no chance to be met: not an attempt
-      if (sr.done && !sr.truncated && sr.reward > 0 && ended() > ended_before &&
+      if (skill_level >= 1 && sr.done && !sr.truncated && sr.reward > 0 && ended() > ended_before &&
           counts.goals_interacted[skill_level - 1] == interacted_before)
         ++r.goals_cut_by_win;
       r.control_seconds += Seconds(t0, Clock::now());

@@ -2,8 +2,10 @@
 // process reads it, so the actor, the shards and the launcher agree on the env and the counts.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/config/config.h"
 
@@ -24,6 +26,8 @@ struct RunOptions {
   std::string dir = "runs/latest";
   // times `coins run` restarts a crashed child (each child counted alone) before it stops the run
   int64_t max_restarts = 3;
+  // task eval returns whose first reaching the run's summary reports (env steps and wall time)
+  std::vector<double> report_returns;
 
   void Visit(ConfigVisitor& v) {
     v.String("env", env, {}, "environment name");
@@ -33,10 +37,13 @@ struct RunOptions {
     v.Int("seed", seed, 0, int64_t(1) << 62, "base seed");
     v.String("dir", dir, {}, "run directory");
     v.Int("max_restarts", max_restarts, 0, 1000, "restarts of a crashed child before the run stops");
+    v.FloatList("report_returns", report_returns, "eval returns whose first reaching the summary reports");
   }
   Status Validate() const {
     if (env.empty()) return Errorf("env must name an environment");
     if (dir.empty()) return Errorf("dir must not be empty");
+    for (double r : report_returns)
+      if (!std::isfinite(r)) return Errorf("report_returns must hold finite returns, not {}", r);
     return Status::Ok();
   }
 };

@@ -221,6 +221,7 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
                bool final_gif) {
   namespace fs = std::filesystem;
   nlohmann::json summary = RunSummary(view, progress.elapsed(), sup.restarts());
+  if (progress.metrics()) summary["evals"] = EvalMilestones(progress.metrics()->evals(), c.run.report_returns);
   std::cout << FormatSummary(summary);
   std::ofstream(fs::path(c.run.dir) / "summary.json") << summary.dump(1) << "\n";
   if (progress.metrics()) {
@@ -379,7 +380,7 @@ int RunLocal(const RunFlags& flags, const RunSeed& seed) {
     StopAll(children, std::chrono::seconds(5));
     return 1;
   }
-  auto metrics = RunMetrics::Open(c.run.dir);
+  auto metrics = RunMetrics::Open(c.run.dir, plan.resume_epoch >= 0);
   if (!metrics.ok()) std::cerr << "coins run: " << metrics.status().message() << "\n";
   Progress progress(c, flags.quiet, metrics.ok() ? std::optional<RunMetrics>(std::move(*metrics)) : std::nullopt);
   RunOutcome outcome = WatchRun(sup, **collector, c, plan.roles, progress);

@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
@@ -100,25 +101,86 @@ MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64
   return r;
 }
 
-Result<RunMetrics> RunMetrics::Open(const std::string& dir) {
+namespace {
+
+constexpr const char* kEvalHeader = "env_steps,eval_return_mean,eval_return_sd,wall_s";
+
+std::string MetricsHeader() {
+  std::string h =
+      "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,eval_env_steps,eval_return_mean,"
+      "eval_return_sd,epoch,restarts";
+  for (int i = 1; i <= RunMetrics::kMaxLevels; ++i) h += ",success_" + std::to_string(i);
+  return h +
+         ",detector_pair,detector_states,detector_fp_per_state,detector_miss_rate"
+         ",greedy_env_steps,greedy_success,greedy_hit_rate,greedy_angle_accuracy";
+}
+
+// the lines of `file`; a last line without its newline (cut by a crash) is cut off the file too
+std::vector<std::string> CompleteLines(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t last = text.rfind('\n');
+  const size_t keep = last == std::string::npos ? 0 : last + 1;
+  std::error_code ec;
+  if (keep < text.size()) fs::resize_file(file, keep, ec);
+  std::vector<std::string> lines;
+  std::istringstream rows(text.substr(0, keep));
+  for (std::string l; std::getline(rows, l);) lines.push_back(l);
+  return lines;
+}
+
+// the rows a resumed run keeps of a CSV file: all of them when its header is `header`; a file
+// with another header (an older coins) is moved aside to FILE.before-resume and none are kept
+std::vector<std::string> ResumedRows(const fs::path& file, const std::string& header) {
+  if (!fs::exists(file)) return {};
+  std::vector<std::string> lines = CompleteLines(file);
+  if (!lines.empty() && lines[0] == header) return {lines.begin() + 1, lines.end()};
+  std::error_code ec;
+  fs::rename(file, file.string() + ".before-resume", ec);
+  return {};
+}
+
+std::optional<EvalPoint> ParseEvalRow(const std::string& row) {
+  EvalPoint e;
+  std::istringstream in(row);
+  char c1 = 0, c2 = 0, c3 = 0;
+  if (!(in >> e.env_steps >> c1 >> e.mean >> c2 >> e.sd >> c3 >> e.wall_s) || c1 != ',' || c2 != ',' || c3 != ',')
+    return std::nullopt;
+  return e;
+}
+
+}  // namespace
+
+Result<RunMetrics> RunMetrics::Open(const std::string& dir, bool resume) {
   RunMetrics m;
   m.dir_ = dir;
-  m.csv_.open(fs::path(dir) / "metrics.csv", std::ios::trunc);
-  m.jsonl_.open(fs::path(dir) / "metrics.jsonl", std::ios::trunc);
-  m.eval_.open(fs::path(dir) / "eval.csv", std::ios::trunc);
+  const fs::path csv = fs::path(dir) / "metrics.csv", jsonl = fs::path(dir) / "metrics.jsonl",
+                 eval = fs::path(dir) / "eval.csv";
+  if (resume) {
+    const std::vector<std::string> rows = ResumedRows(csv, MetricsHeader());
+    if (!rows.empty()) m.wall_offset_ = std::strtod(rows.back().c_str(), nullptr);
+    for (const std::string& row : ResumedRows(eval, kEvalHeader))
+      if (auto e = ParseEvalRow(row)) m.evals_.push_back(*e), m.last_eval_ = std::max(m.last_eval_, e->env_steps);
+    if (fs::exists(jsonl)) CompleteLines(jsonl);
+  }
+  // a resumed run appends to a file that holds its header; everything else starts anew
+  auto open = [&](std::ofstream& out, const fs::path& file, const std::string& header) {
+    std::error_code ec;
+    const bool append = resume && fs::exists(file) && fs::file_size(file, ec) > 0;
+    out.open(file, append ? std::ios::app : std::ios::trunc);
+    if (!append && !header.empty()) out << header << "\n" << std::flush;
+  };
+  open(m.csv_, csv, MetricsHeader());
+  open(m.jsonl_, jsonl, "");
+  open(m.eval_, eval, kEvalHeader);
   if (!m.csv_ || !m.jsonl_ || !m.eval_) return Errorf("cannot write the metrics files in {}", dir);
-  m.csv_ << "wall_s,env_steps,phase,steps_per_s,updates_per_s,lag_median,eval_env_steps,eval_return_mean,"
-            "eval_return_sd,epoch,restarts";
-  for (int i = 1; i <= kMaxLevels; ++i) m.csv_ << ",success_" << i;
-  m.csv_ << ",detector_pair,detector_states,detector_fp_per_state,detector_miss_rate"
-            ",greedy_env_steps,greedy_success,greedy_hit_rate,greedy_angle_accuracy\n";
-  m.eval_ << "env_steps,eval_return_mean,eval_return_sd\n";
   return m;
 }
 
 void RunMetrics::Append(const MetricsRow& r) {
   const bool eval = r.eval_env_steps > 0;
-  csv_ << fmt::format("{:.2f},{},{},{:.1f},{:.2f},{:.3f},", r.wall_s, r.env_steps, r.phase, r.steps_per_s,
+  const double wall_s = r.wall_s + wall_offset_;
+  csv_ << fmt::format("{:.2f},{},{},{:.1f},{:.2f},{:.3f},", wall_s, r.env_steps, r.phase, r.steps_per_s,
                       r.updates_per_s, r.lag_median);
   csv_ << (eval ? fmt::format("{},{:.4f},{:.4f}", r.eval_env_steps, r.eval_mean, r.eval_sd) : std::string(",,"));
   csv_ << fmt::format(",{},{}", r.epoch, r.restarts);
@@ -136,7 +198,7 @@ void RunMetrics::Append(const MetricsRow& r) {
     links.push_back(
         {{"level", i + 1}, {"link", r.links[i].name}, {"state", r.links[i].state}, {"success", r.links[i].success}});
   json ev = eval ? json{{"env_steps", r.eval_env_steps}, {"mean", r.eval_mean}, {"sd", r.eval_sd}} : json(nullptr);
-  jsonl_ << json{{"wall_s", r.wall_s},
+  jsonl_ << json{{"wall_s", wall_s},
                  {"env_steps", r.env_steps},
                  {"phase", r.phase},
                  {"steps_per_s", r.steps_per_s},
@@ -155,7 +217,8 @@ void RunMetrics::Append(const MetricsRow& r) {
                 .dump()
          << "\n";
   if (eval && r.eval_env_steps > last_eval_) {
-    eval_ << fmt::format("{},{:.4f},{:.4f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd);
+    eval_ << fmt::format("{},{:.4f},{:.4f},{:.2f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s);
+    evals_.push_back({r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s});
     last_eval_ = r.eval_env_steps;
   }
   // one row a second: flushed, so a run that is killed keeps its metrics
@@ -238,6 +301,24 @@ json RunSummary(const StatusView& v, double wall_s, int64_t restarts) {
   return j;
 }
 
+json EvalMilestones(const std::vector<EvalPoint>& evals, const std::vector<double>& targets) {
+  if (evals.empty()) return nullptr;
+  auto point = [](const EvalPoint& e) {
+    return json{{"env_steps", e.env_steps}, {"mean", e.mean}, {"sd", e.sd}, {"wall_s", e.wall_s}};
+  };
+  const EvalPoint* best = &evals.front();
+  for (const EvalPoint& e : evals)
+    if (e.mean > best->mean) best = &e;
+  json reached = json::array();
+  for (double target : targets) {
+    auto first = std::find_if(evals.begin(), evals.end(), [&](const EvalPoint& e) { return e.mean >= target; });
+    json r = first == evals.end() ? json{{"env_steps", nullptr}} : point(*first);
+    r["return"] = target;
+    reached.push_back(r);
+  }
+  return {{"count", evals.size()}, {"best", point(*best)}, {"reached", reached}};
+}
+
 std::string FormatSummary(const json& s) {
   std::string out = fmt::format("coins run summary: phase {} after {:.1f} s, {} env steps, {} restarts\n",
                                 s.value("phase", "unknown"), s.value("wall_s", 0.0),
@@ -270,6 +351,19 @@ std::string FormatSummary(const json& s) {
                        Short(double(s["eval"]["env_steps"].get<uint64_t>())));
   else
     out += "  final eval return: none reported\n";
+  if (s.contains("evals") && s["evals"].is_object()) {
+    const json& e = s["evals"];
+    const json& b = e["best"];
+    out += fmt::format("  best of {} evaluations: {:.2f} +- {:.2f} at {} env steps ({:.0f} s)\n",
+                       e["count"].get<uint64_t>(), b["mean"].get<double>(), b["sd"].get<double>(),
+                       Short(double(b["env_steps"].get<uint64_t>())), b["wall_s"].get<double>());
+    for (const json& r : e["reached"])
+      out += r["env_steps"].is_null()
+                 ? fmt::format("  eval return >= {:g}: not reached\n", r["return"].get<double>())
+                 : fmt::format("  eval return >= {:g}: first at {} env steps ({:.0f} s), {:.2f}\n",
+                               r["return"].get<double>(), Short(double(r["env_steps"].get<uint64_t>())),
+                               r["wall_s"].get<double>(), r["mean"].get<double>());
+  }
   return out;
 }
 

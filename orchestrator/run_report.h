@@ -1,7 +1,9 @@
 // What `coins run` shows and writes about the chain: the chain part of the progress line, the
 // metrics rows (RUN_DIR/metrics.csv and metrics.jsonl, one row a second; eval.csv, one row per
-// evaluation), the learning-curve PNGs (gnuplot), the summary (printed and summary.json), and
-// the final GIF through `coins eval` when that subcommand exists.
+// evaluation), the learning-curve PNGs (gnuplot), the summary (printed and summary.json) with
+// the best evaluation and when each reported return was first reached, and the final GIF
+// through `coins eval` when that subcommand exists. A resumed run appends to the metrics files
+// of the run it continues, its wall clock going on from their last row.
 #pragma once
 
 #include <cstdint>
@@ -43,12 +45,23 @@ struct MetricsRow {
 };
 MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64_t restarts);
 
+// one task evaluation as the run saw it: wall_s is the run's wall clock when it was first reported
+struct EvalPoint {
+  uint64_t env_steps = 0;
+  double mean = 0, sd = 0, wall_s = 0;
+};
+
 class RunMetrics {
  public:
   static constexpr int kMaxLevels = 8;
-  // opens (truncates) dir/metrics.csv, metrics.jsonl and eval.csv
-  static Result<RunMetrics> Open(const std::string& dir);
+  // opens dir/metrics.csv, metrics.jsonl and eval.csv: truncated for a new run; with resume,
+  // appended to, the evaluations and the wall clock read back from them (a row cut by a crash is
+  // dropped; a file with another header is kept as NAME.before-resume and started anew)
+  static Result<RunMetrics> Open(const std::string& dir, bool resume = false);
+  // writes one row (its wall_s taken on from the resumed run's last row)
   void Append(const MetricsRow& row);
+  // every evaluation so far, the resumed run's included, in order
+  const std::vector<EvalPoint>& evals() const { return evals_; }
   // flushes; writes skill_success.png and eval_return.png with gnuplot (bounded: 30 s); returns
   // the files written, or an error line (gnuplot missing or failing) that does not fail the run
   Result<std::vector<std::string>> Plot();
@@ -57,6 +70,8 @@ class RunMetrics {
   std::string dir_;
   std::ofstream csv_, jsonl_, eval_;
   uint64_t last_eval_ = 0;
+  double wall_offset_ = 0;  // the resumed run's last wall_s
+  std::vector<EvalPoint> evals_;
   int levels_ = 0;
   std::vector<std::string> names_;  // the newest link name per level
 };
@@ -68,6 +83,10 @@ nlohmann::json DetectorJson(const DetectorCounts& d);
 // the summary of a finished run: links (accepted / learned steps, Sc_I, masks, goal sets, skill
 // success), final eval return, wall time, env steps
 nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
+// the best evaluation ("best": env_steps, mean, sd, wall_s) and, for each return in `targets`, the
+// first evaluation whose mean reached it ("reached": [{return, env_steps, mean, wall_s}], env_steps
+// null when none did); null without evaluations. Goes into the summary as "evals"
+nlohmann::json EvalMilestones(const std::vector<EvalPoint>& evals, const std::vector<double>& targets);
 std::string FormatSummary(const nlohmann::json& summary);
 
 // the newest complete epoch cut after the chain was done (its chain-epoch-N.json holds phase

@@ -111,6 +111,80 @@ msg::ActorStats Counting(uint64_t seq, const std::string& pair, uint64_t states,
   return a;
 }
 
+// rows 1..n of a run whose eval return is 10 x row from row 5 on (an evaluation per row)
+void AppendRows(RunMetrics& m, int first, int last) {
+  for (int i = first; i <= last; ++i) {
+    const uint64_t steps = uint64_t(i) * 5000;
+    m.Append(MakeRow(View(steps, {Link("Action", "Paddle", 6.2, 0.5, "training")}, i >= 5 ? steps : 0, 10.0 * i),
+                     double(i - first + 1), 5000.0, 0));
+  }
+}
+
+TEST(RunReport, AResumedRunAppendsToItsMetricsAndTakesItsWallClockOn) {
+  fs::path dir = Dir("resume");
+  {
+    auto m = RunMetrics::Open(dir.string());
+    ASSERT_TRUE(m.ok()) << m.status().message();
+    AppendRows(*m, 1, 10);  // wall 1..10 s
+  }
+  std::ofstream(dir / "metrics.csv", std::ios::app) << "11.00,55000,train";  // cut by a crash
+  auto m = RunMetrics::Open(dir.string(), /*resume=*/true);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  ASSERT_EQ(m->evals().size(), 6u);  // rows 5..10, read back
+  EXPECT_EQ(m->evals().back().env_steps, 50'000u);
+  EXPECT_DOUBLE_EQ(m->evals().back().mean, 100.0);
+  EXPECT_DOUBLE_EQ(m->evals().back().wall_s, 10.0);
+  AppendRows(*m, 11, 13);  // this process's wall 1..3 s
+  auto rows = Lines(dir / "metrics.csv");
+  ASSERT_EQ(rows.size(), 1u + 13u);  // one header, the cut row gone
+  EXPECT_EQ(rows[10].substr(0, 12), "10.00,50000,");
+  EXPECT_EQ(rows[11].substr(0, 12), "11.00,55000,");
+  EXPECT_EQ(rows[13].substr(0, 12), "13.00,65000,");
+  auto evals = Lines(dir / "eval.csv");
+  ASSERT_EQ(evals.size(), 1u + 9u);
+  EXPECT_EQ(evals[0], "env_steps,eval_return_mean,eval_return_sd,wall_s");
+  EXPECT_EQ(evals[9], "65000,130.0000,2.0000,13.00");
+  EXPECT_EQ(Lines(dir / "metrics.jsonl").size(), 13u);
+  ASSERT_EQ(m->evals().size(), 9u);
+  EXPECT_DOUBLE_EQ(m->evals()[6].wall_s, 11.0);
+
+  // a run without --resume starts its files anew
+  auto fresh = RunMetrics::Open(dir.string());
+  ASSERT_TRUE(fresh.ok());
+  EXPECT_TRUE(fresh->evals().empty());
+  EXPECT_EQ(Lines(dir / "eval.csv").size(), 1u);
+}
+
+TEST(RunReport, AResumeKeepsMetricsOfAnotherLayoutAsideInsteadOfMixingThem) {
+  fs::path dir = Dir("resume-old");
+  std::ofstream(dir / "eval.csv") << "env_steps,eval_return_mean,eval_return_sd\n20000,5.0,1.0\n";
+  auto m = RunMetrics::Open(dir.string(), /*resume=*/true);
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_TRUE(m->evals().empty());
+  EXPECT_EQ(Lines(dir / "eval.csv.before-resume").size(), 2u);
+  EXPECT_EQ(Lines(dir / "eval.csv"), std::vector<std::string>{"env_steps,eval_return_mean,eval_return_sd,wall_s"});
+}
+
+TEST(RunReport, TheSummarySaysTheBestEvaluationAndWhenEachReturnWasFirstReached) {
+  const std::vector<EvalPoint> evals = {
+      {20'000, 40, 9, 100}, {40'000, 91.5, 12, 200}, {60'000, 96, 3, 300}, {80'000, 97.25, 2, 400}, {100'000, 90, 8, 500}};
+  const auto m = EvalMilestones(evals, {90, 95, 99});
+  EXPECT_EQ(m["count"], 5u);
+  EXPECT_EQ(m["best"]["env_steps"], 80'000u);
+  EXPECT_EQ(m["reached"][0]["env_steps"], 40'000u);
+  EXPECT_EQ(m["reached"][1]["env_steps"], 60'000u);
+  EXPECT_DOUBLE_EQ(m["reached"][1]["wall_s"].get<double>(), 300.0);
+  EXPECT_TRUE(m["reached"][2]["env_steps"].is_null());
+  EXPECT_TRUE(EvalMilestones({}, {95}).is_null());
+
+  auto summary = RunSummary(View(100'000, {}, 100'000, 90), 500, 0);
+  summary["evals"] = m;
+  const std::string text = FormatSummary(summary);
+  EXPECT_NE(text.find("best of 5 evaluations: 97.25 +- 2.00 at 80.0k env steps (400 s)"), std::string::npos) << text;
+  EXPECT_NE(text.find("eval return >= 95: first at 60.0k env steps (300 s), 96.00"), std::string::npos) << text;
+  EXPECT_NE(text.find("eval return >= 99: not reached"), std::string::npos) << text;
+}
+
 TEST(RunReport, ProgressAndSummaryShowTheChain) {
   StatusView v =
       View(123'456, {Link("Action", "Paddle", 6.2, 0.93, "learned"), Link("Paddle", "Ball", 4.1, 0.4, "training")},

@@ -166,8 +166,11 @@ TEST(RunReport, AResumeKeepsMetricsOfAnotherLayoutAsideInsteadOfMixingThem) {
 }
 
 TEST(RunReport, TheSummarySaysTheBestEvaluationAndWhenEachReturnWasFirstReached) {
-  const std::vector<EvalPoint> evals = {
-      {20'000, 40, 9, 100}, {40'000, 91.5, 12, 200}, {60'000, 96, 3, 300}, {80'000, 97.25, 2, 400}, {100'000, 90, 8, 500}};
+  const std::vector<EvalPoint> evals = {{20'000, 40, 9, 100},
+                                        {40'000, 91.5, 12, 200},
+                                        {60'000, 96, 3, 300},
+                                        {80'000, 97.25, 2, 400},
+                                        {100'000, 90, 8, 500}};
   const auto m = EvalMilestones(evals, {90, 95, 99});
   EXPECT_EQ(m["count"], 5u);
   EXPECT_EQ(m["best"]["env_steps"], 80'000u);

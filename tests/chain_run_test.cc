@@ -228,6 +228,8 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   ASSERT_TRUE(coins[0].succeeded()) << ReadText(dir / "first.log");
   const uint64_t epoch = chain::ChainStore::Epochs(run / "chain").back();
   std::ofstream(run / "chain" / ("chain-epoch-" + std::to_string(epoch + 5) + ".json")) << "{";  // newest, corrupt
+  const std::vector<std::string> first_rows = Lines(ReadText(run / "metrics.csv"));
+  ASSERT_GT(first_rows.size(), 2u);
   const std::string e = std::to_string(epoch);
 
   auto second = ChildProcess::Spawn(
@@ -257,6 +259,13 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   EXPECT_NE(out.find("resuming epoch " + e), std::string::npos) << out;
   EXPECT_NE(out.find("skipping epoch " + std::to_string(epoch + 5)), std::string::npos) << out;
   EXPECT_EQ(out.find("removed the previous run"), std::string::npos) << out;
+  // the resumed run appended its metrics rows after the first run's, its wall clock going on
+  const std::vector<std::string> rows = Lines(ReadText(run / "metrics.csv"));
+  ASSERT_GT(rows.size(), first_rows.size());
+  EXPECT_TRUE(std::equal(first_rows.begin(), first_rows.end(), rows.begin()));
+  EXPECT_EQ(std::count(rows.begin(), rows.end(), rows[0]), 1);
+  for (size_t i = 2; i < rows.size(); ++i)
+    EXPECT_LE(std::stod(rows[i - 1]), std::stod(rows[i])) << "wall_s of row " << i << ": " << rows[i];
 }
 
 }  // namespace

@@ -94,6 +94,14 @@ inline std::string ReadText(const std::filesystem::path& p) {
 
 // the pid of the process of `binary` started with RUN_DIR/config.yaml (as `coins run` starts its
 // children), or -1
+// the lines of a text (without their newlines)
+inline std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
 inline pid_t PidOf(const std::string& binary, const std::filesystem::path& run) {
   auto r = RunCommand("pgrep -f '[" + binary.substr(0, 1) + "]" + binary.substr(1) + ".*" + run.string() + "/config'");
   return r.code == 0 ? pid_t(std::stol(r.output)) : -1;

@@ -46,7 +46,10 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   const int skill_level = task ? acting - 1 : acting;
   const HierarchyCounters& counts = runner.counters();
   auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] - r.goals_cut_by_win : 0; };
-  for (int ep = 0; ep < (task ? o.episodes : 1 << 30); ++ep) {
+  // a skill is evaluated until its goal (or step) budget is spent, over as many episodes as that
+  // takes; each starts from a fresh Reset, and those the env ended count their returns
+  bool budget_spent = false;
+  for (int ep = 0; !budget_spent && ep < (task ? o.episodes : 1 << 30); ++ep) {
     env.Reset(o.seed + uint64_t(ep), state);
     runner.StartEpisode(state, &rows);
     double ret = 0;
@@ -75,16 +78,11 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       if (task && !env.spec().penalty_means.empty() && sr.reward <= env.spec().penalty_reward) ++r.penalty_steps;
       over = sr.done || sr.truncated;
       std::swap(state, next);
-      if (!task && ended() >= uint64_t(o.episodes)) break;
-      if (!task && over) {
-        env.ResetNext(state);
-        runner.StartEpisode(state, &rows);
-        over = false;
-      }
-      if (!task && r.steps >= o.max_steps) break;
+      budget_spent = !task && (ended() >= uint64_t(o.episodes) || r.steps >= o.max_steps);
+      if (budget_spent) break;
     }
-    if (task) r.returns.push_back(ret);
-    if (!task) break;
+    // a task episode counts however it ended; a skill's only when the env ended it
+    if (task || over) r.returns.push_back(ret);
   }
   if (skill_level >= 1) {
     r.goals_ended = ended();

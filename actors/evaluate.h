@@ -9,8 +9,11 @@
 // Task (the acting level is the task): `episodes` episodes, each from Reset(seed + i) (a fresh
 // board), until the env ends it or max_steps; the return is the sum of env rewards.
 // Skill (the acting level is a skill): its goals drawn at random, until `episodes` goals ended
-// or max_steps in all; success is the fraction reached (for a link whose skill needs an
-// interaction: reached at an interaction, the ball-angle accuracy in Breakout).
+// or max_steps in all, over as many episodes as that takes, each from Reset(seed + i); success
+// is the fraction reached (for a link whose skill needs an interaction: reached at an
+// interaction, the ball-angle accuracy in Breakout). The returns are those of the episodes the
+// env ended (how the skill with random goals plays the task; the budget's last, cut episode is
+// left out).
 #pragma once
 
 #include <cstdint>
@@ -31,7 +34,7 @@ struct EvalOptions {
 };
 
 struct EvalResult {
-  std::vector<double> returns;  // task: one per episode
+  std::vector<double> returns;  // one per episode (a skill: per episode the env ended)
   double return_mean = 0, return_sd = 0;
   uint64_t goals_ended = 0, goals_reached = 0;  // the acting skill's (task: the top skill's)
   uint64_t goals_interacted = 0;                // of the goals ended, those ended by a link interaction

@@ -222,8 +222,8 @@ TEST(Hierarchy, EvaluationEpsilonRandomisesOnlyTheActingLevel) {
 
 // a skill evaluation does not count as failed the goals that an episode end with a positive
 // reward cut (breakout-single ends when its block breaks): those goals had no chance; a goal
-// cut by a drop (-10) still counts, as a goal without its bounce
-TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttempts) {
+// cut by a drop (-10) still counts, as a goal without its bounce. Its returns are the episodes'
+TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttemptsAndEndedEpisodesGiveTheReturns) {
   auto env = envs::MakeEnv("breakout-single");
   ASSERT_TRUE(env.ok()) << env.status().message();
   const envs::EnvSpec& spec = (*env)->spec();
@@ -235,9 +235,15 @@ TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttempts) {
   o.episodes = 300;  // goals
   o.max_steps = 1'000'000;
   o.seed = 5;
+  std::vector<double> sums;  // per episode, from the steps seen
+  std::vector<double> ended;  // the sums of the episodes the env ended
   auto r = Evaluate(**env, models, 2, o, [&](const EvalStep& s) {
     wins += s.result->done && s.result->reward > 0;
     losses += s.result->done && s.result->reward < 0;
+    ASSERT_TRUE(size_t(s.episode) == sums.size() || size_t(s.episode) + 1 == sums.size()) << s.episode;
+    if (size_t(s.episode) == sums.size()) sums.push_back(0);
+    sums.back() += s.result->reward;
+    if (s.result->done || s.result->truncated) ended.push_back(sums.back());
   });
   ASSERT_TRUE(r.ok()) << r.status().message();
   ASSERT_GT(wins, 0) << "random play breaks the single block now and then";
@@ -247,6 +253,12 @@ TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttempts) {
   EXPECT_EQ(r->goals_interacted, 0u);
   EXPECT_EQ(r->goals_ended, uint64_t(o.episodes));
   EXPECT_GE(r->goals_ended, uint64_t(losses));
+  // the returns are those of the episodes the env ended (a last one cut by the goal budget is
+  // left out; here the budget's last goal ended with its episode)
+  EXPECT_EQ(r->returns, ended);
+  EXPECT_EQ(r->returns.size(), size_t(wins + losses));
+  EXPECT_GT(r->returns.size(), 100u);
+  EXPECT_TRUE(sums.size() == ended.size() || sums.size() == ended.size() + 1) << sums.size();
 }
 
 }  // namespace

@@ -235,7 +235,7 @@ TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttemptsAndEndedEpisodesGiveTheRetu
   o.episodes = 300;  // goals
   o.max_steps = 1'000'000;
   o.seed = 5;
-  std::vector<double> sums;  // per episode, from the steps seen
+  std::vector<double> sums;   // per episode, from the steps seen
   std::vector<double> ended;  // the sums of the episodes the env ended
   auto r = Evaluate(**env, models, 2, o, [&](const EvalStep& s) {
     wins += s.result->done && s.result->reward > 0;

@@ -135,10 +135,10 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
     std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes ({})", r.return_mean, r.return_sd,
                              r.returns.size(), how)
               << "\n";
-  }
-  else if (!r.returns.empty())
-    std::cout << fmt::format("  return {:.2f} +- {:.2f} over the {} episodes the env ended (the skill's goals at random)",
-                             r.return_mean, r.return_sd, r.returns.size())
+  } else if (!r.returns.empty())
+    std::cout << fmt::format(
+                     "  return {:.2f} +- {:.2f} over the {} episodes the env ended (the skill's goals at random)",
+                     r.return_mean, r.return_sd, r.returns.size())
               << "\n";
   if (task && !es.done_means.empty())
     std::cout << fmt::format("  {} in {} of {} episodes ({:.1f}%)", es.done_means, r.episodes_done, r.returns.size(),

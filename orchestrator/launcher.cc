@@ -220,7 +220,8 @@ void WaitForFinalEpoch(const SystemConfig& c, bool chain_done) {
 void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup, const SystemConfig& c,
                bool final_gif) {
   namespace fs = std::filesystem;
-  nlohmann::json summary = RunSummary(view, progress.elapsed(), sup.restarts());
+  const double wall_s = progress.elapsed() + (progress.metrics() ? progress.metrics()->wall_offset() : 0.0);
+  nlohmann::json summary = RunSummary(view, wall_s, sup.restarts());
   if (progress.metrics()) summary["evals"] = EvalMilestones(progress.metrics()->evals(), c.run.report_returns);
   std::cout << FormatSummary(summary);
   std::ofstream(fs::path(c.run.dir) / "summary.json") << summary.dump(1) << "\n";

@@ -62,6 +62,8 @@ class RunMetrics {
   void Append(const MetricsRow& row);
   // every evaluation so far, the resumed run's included, in order
   const std::vector<EvalPoint>& evals() const { return evals_; }
+  // the wall time the resumed run had spent (0 for a new run)
+  double wall_offset() const { return wall_offset_; }
   // flushes; writes skill_success.png and eval_return.png with gnuplot (bounded: 30 s); returns
   // the files written, or an error line (gnuplot missing or failing) that does not fail the run
   Result<std::vector<std::string>> Plot();

@@ -130,6 +130,7 @@ TEST(RunReport, AResumedRunAppendsToItsMetricsAndTakesItsWallClockOn) {
   std::ofstream(dir / "metrics.csv", std::ios::app) << "11.00,55000,train";  // cut by a crash
   auto m = RunMetrics::Open(dir.string(), /*resume=*/true);
   ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_DOUBLE_EQ(m->wall_offset(), 10.0);
   ASSERT_EQ(m->evals().size(), 6u);  // rows 5..10, read back
   EXPECT_EQ(m->evals().back().env_steps, 50'000u);
   EXPECT_DOUBLE_EQ(m->evals().back().mean, 100.0);

@@ -95,8 +95,16 @@ class EvalRecorder {
 };
 
 // the result as one JSON line (--json) or as text
+// which weights of the task acted: "best" (with the evaluation that chose them) or "newest"
+nlohmann::json TaskWeights(const LearnerCore& core, bool best) {
+  const auto& b = core.best_task();
+  if (!best || !b) return {{"weights", "newest"}};
+  return {{"weights", "best"}, {"env_steps", b->env_steps}, {"return_mean", b->return_mean}};
+}
+
 void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::EnvSpec& es, int level,
-               const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r) {
+               const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r,
+               const nlohmann::json& task_weights) {
   nlohmann::json j = {{"run_dir", f.run_dir},
                       {"checkpoint", checkpoint},
                       {"env", es.name},
@@ -113,6 +121,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                       {"steps_per_s", r.control_seconds > 0 ? r.steps / r.control_seconds : 0.0},
                       {"env_steps_per_s", r.env_seconds > 0 ? r.steps / r.env_seconds : 0.0},
                       {"explore", spec.is_task() ? f.explore : 0.0}};
+  if (spec.is_task()) j["task_weights"] = task_weights;
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
   const bool task = spec.is_task();
@@ -134,6 +143,13 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                                                     : std::string("greedy");
     std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes ({})", r.return_mean, r.return_sd,
                              r.returns.size(), how)
+              << "\n";
+    std::cout << (task_weights["weights"] == "best"
+                      ? fmt::format("  the task's best-evaluated weights (return {:.2f} at {} env steps; --last: "
+                                    "the newest)",
+                                    task_weights["return_mean"].get<double>(),
+                                    task_weights["env_steps"].get<uint64_t>())
+                      : std::string("  the task's newest weights"))
               << "\n";
   } else if (!r.returns.empty())
     std::cout << fmt::format(
@@ -189,7 +205,8 @@ Status RunEval(const EvalFlags& f) {
                : Errorf("--skill {}: not in {} (levels: {})", f.skill, *ckpt, names.empty() ? "none" : names);
   for (int L = 1; L <= level; ++L)
     COINS_RETURN_IF_ERROR(CheckLevelFits(core.trainer(L)->spec(), (*trained)->spec(), (*env)->spec()));
-  auto models = core.Models(level);
+  const bool best = f.skill.empty() && !f.last;
+  auto models = core.Models(level, best);
   if (!models.ok()) return models.status();
 
   EvalRecorder recorder(f, **env);
@@ -201,7 +218,7 @@ Status RunEval(const EvalFlags& f) {
 
   const policy::LevelSpec& spec = core.trainer(level)->spec();
   const policy::LevelSpec& skill = spec.is_task() && level > 1 ? core.trainer(level - 1)->spec() : spec;
-  PrintEval(f, *ckpt, (*env)->spec(), level, spec, skill, *r);
+  PrintEval(f, *ckpt, (*env)->spec(), level, spec, skill, *r, TaskWeights(core, best));
   return Status::Ok();
 }
 
@@ -222,6 +239,8 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--gif", f->gif, "write the first --gif-steps steps as a GIF");
   cmd->add_option("--gif-steps", f->gif_steps, "frames in the GIF")->check(CLI::Range(1, 3000));
   cmd->add_flag("--json", f->json, "print one JSON object");
+  cmd->add_flag("--last", f->last,
+                "the task's newest weights instead of those its best periodic evaluation scored with");
   cmd->callback([f, exit_code] {
     if (Status s = RunEval(*f); !s.ok()) {
       std::cerr << "coins eval: " << s.message() << "\n";

@@ -1,5 +1,6 @@
-// `coins eval RUN_DIR`: runs the task policy of a run (greedy but for its --explore epsilon)
-// or one of its skills with random goals (greedy) from its newest learner checkpoint, and
+// `coins eval RUN_DIR`: runs the task policy of a run (greedy but for its --explore epsilon;
+// the weights its best periodic evaluation scored with, or with --last its newest) or one of
+// its skills with random goals (greedy) from its newest learner checkpoint, and
 // reports the return's mean and standard deviation, the top skill's success (ball-angle
 // accuracy in Breakout), optionally the rollout in the `coins env rollout` format and a GIF.
 #pragma once
@@ -27,6 +28,7 @@ struct EvalFlags {
   std::string gif;
   int gif_steps = 1500;  // frames (env steps) in the GIF
   bool json = false;
+  bool last = false;  // the task's newest weights instead of its best-evaluated ones
 };
 
 // adds `eval`; its exit code goes to *exit_code

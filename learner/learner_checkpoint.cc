@@ -1,7 +1,8 @@
 // LearnerCore checkpoints: RUN_DIR/checkpoints/learner-epoch-N/ holding state.json (job
 // bookkeeping, versions, specs, counters), trainer-L.bin (each level's networks, targets and
-// optimiser moments, common/nn/serialize.h format) and detector-T.bin (each target's newest
-// detector). The directory is written under a temporary name and renamed whole.
+// optimiser moments, common/nn/serialize.h format), detector-T.bin (each target's newest
+// detector) and task-best.bin (the best-evaluated task policy's acting weights, when there is
+// one). The directory is written under a temporary name and renamed whole.
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -9,6 +10,7 @@
 
 #include "common/files.h"
 #include "common/nn/serialize.h"
+#include "common/policy/policy_net.h"
 #include "common/policy/weights_msg.h"
 #include "learner/learner_core.h"
 #include "learner/trainers/input_remap.h"
@@ -67,6 +69,14 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
                              {"file", file},
                              {"acting_checksum", acting}});
   }
+  if (best_task_) {
+    COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/task-best.bin", best_task_->acting));
+    j["best_task"] = {{"level", best_task_->level},
+                      {"env_steps", best_task_->env_steps},
+                      {"return_mean", best_task_->return_mean},
+                      {"return_sd", best_task_->return_sd},
+                      {"file", "task-best.bin"}};
+  }
   for (const auto& [target, d] : detectors_) {
     if (!d.det) continue;
     const std::string file = "detector-" + target + ".bin";
@@ -120,6 +130,7 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
       detectors_[dj.at("target").get<std::string>()] = {*spec,
                                                         std::make_unique<detector::PairDetector>(std::move(*det))};
     }
+    COINS_RETURN_IF_ERROR(LoadBestTask(dir, j));
     counters_ = j.at("counters").get<std::map<std::string, uint64_t>>();
     generation_ = j.at("generation").get<uint64_t>() + 1;
     command_.seq(j.at("command_seq").get<uint64_t>());
@@ -144,6 +155,25 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
   }
   has_command_ = false;  // the orchestrator's command (re)starts the job; the same seq continues it
   published_.clear();
+  return Status::Ok();
+}
+
+Status LearnerCore::LoadBestTask(const std::string& dir, const nlohmann::json& state) {
+  best_task_.reset();
+  if (!state.contains("best_task")) return Status::Ok();
+  const json& b = state.at("best_task");
+  BestTask best{b.at("level").get<int>(), b.at("env_steps").get<uint64_t>(), b.at("return_mean").get<double>(),
+                b.at("return_sd").get<double>(), {}};
+  const std::string file = dir + "/" + b.at("file").get<std::string>();
+  PolicyTrainer* t = trainer(best.level);
+  if (!t || !t->spec().is_task()) return Errorf("{}: the best task's level {} holds no task", file, best.level);
+  auto blob = ReadFileBytes(file);
+  if (!blob.ok()) return blob.status();
+  auto net = policy::PolicyNet::Create(t->spec());
+  if (!net.ok()) return net.status();
+  COINS_RETURN_IF_ERROR(net->Load(*blob, file));  // a damaged or foreign file is refused here
+  best.acting = std::move(*blob);
+  best_task_ = std::move(best);
   return Status::Ok();
 }
 
@@ -244,6 +274,7 @@ Status LearnerCore::KeepTaskFor(const envs::EnvSpec& target) {
 
 void LearnerCore::ForgetJobs() {
   specs_.clear();
+  best_task_.reset();
   published_.clear();
   command_ = msg::ChainCommand();
   has_command_ = false;

@@ -88,6 +88,7 @@ Status LearnerCore::EnsureTrainer(int level) {
   auto made = PolicyTrainer::Create(spec, Group(level, spec.is_task()), seed_ + 1000 * uint64_t(level));
   if (!made.ok()) return made.status();
   trainers_[level] = std::move(*made);
+  if (best_task_ && best_task_->level == level) best_task_.reset();  // another policy now
   return Status::Ok();
 }
 
@@ -291,6 +292,10 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
       "eval of {} at {} env steps: return {:.2f} +- {:.2f}, success {:.3f}, hit rate {:.3f}, angle accuracy {:.3f}",
       spec.name, env_steps, r->return_mean, r->return_sd, r->success, status_.eval_hit_rate(),
       status_.eval_angle_accuracy());
+  if (spec.is_task() && !r->returns.empty() && (!best_task_ || r->return_mean > best_task_->return_mean)) {
+    best_task_ = BestTask{train_level_, env_steps, r->return_mean, r->return_sd, trainer(train_level_)->ActingBlob()};
+    spdlog::info("the best task policy so far: return {:.2f} at {} env steps", r->return_mean, env_steps);
+  }
   return Status::Ok();
 }
 
@@ -312,7 +317,7 @@ std::vector<msg::PolicyWeights> LearnerCore::Latest() const {
   return all;
 }
 
-Result<std::unique_ptr<HierarchyModels>> LearnerCore::Models(int levels) const {
+Result<std::unique_ptr<HierarchyModels>> LearnerCore::Models(int levels, bool best_task) const {
   auto models = std::make_unique<HierarchyModels>();
   for (int L = 1; L <= levels; ++L) {
     PolicyTrainer* t = trainer(L);
@@ -321,7 +326,8 @@ Result<std::unique_ptr<HierarchyModels>> LearnerCore::Models(int levels) const {
     auto net = policy::PolicyNet::Create(t->spec());
     if (!net.ok()) return net.status();
     m->net = std::move(*net);
-    COINS_RETURN_IF_ERROR(m->net.Load(t->ActingBlob(), t->spec().name));
+    const bool best = best_task && best_task_ && best_task_->level == L;
+    COINS_RETURN_IF_ERROR(m->net.Load(best ? best_task_->acting : t->ActingBlob(), t->spec().name));
     m->trained = t->updates() > 0;
     const std::string& dname = t->spec().detector;
     auto it = detectors_.find(t->spec().goal.factor);

@@ -13,8 +13,11 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json_fwd.hpp>
 
 #include "actors/hierarchy.h"
 #include "common/env_spec.h"
@@ -69,8 +72,20 @@ class LearnerCore {
   // the blocks fits any number of blocks; an Mlp over the whole state fits only the same layout)
   Status KeepTaskFor(const envs::EnvSpec& target);
 
-  // the acting models of levels 1..n as actors would hold them (evaluation)
-  Result<std::unique_ptr<HierarchyModels>> Models(int levels) const;
+  // the task policy whose periodic evaluation scored the highest return so far (its acting
+  // weights, as they were then): the run's final policy, which `coins eval` takes unless told
+  // --last. Kept in checkpoints; forgotten when the task level is rebuilt or a transfer starts.
+  struct BestTask {
+    int level = 0;
+    uint64_t env_steps = 0;  // of the evaluation
+    double return_mean = 0, return_sd = 0;
+    std::vector<uint8_t> acting;  // PolicyNet blob
+  };
+  const std::optional<BestTask>& best_task() const { return best_task_; }
+
+  // the acting models of levels 1..n as actors would hold them (evaluation); with best_task, the
+  // task level acts with the best task's weights (when there is one)
+  Result<std::unique_ptr<HierarchyModels>> Models(int levels, bool best_task = false) const;
   // the trainer of a level (null when none)
   PolicyTrainer* trainer(int level) const;
 
@@ -91,6 +106,7 @@ class LearnerCore {
   Status Evaluate(uint64_t env_steps);
   void ClearEval();   // no evaluation reported (a new job starts)
   void ForgetJobs();  // a transfer's new run: no command, job, evaluation or update count
+  Status LoadBestTask(const std::string& dir, const nlohmann::json& state);  // from state.json
   Status RetrainDetector(SampleSource* source, uint64_t env_steps, Outputs* out);
   void RecordLag(const SampleColumns& c, int level);
   DetectRoundOptions RoundOptions() const;
@@ -110,6 +126,7 @@ class LearnerCore {
   int64_t job_start_updates_ = 0;
   uint64_t detect_done_seq_ = 0;
   uint64_t next_eval_at_ = 0, next_retrain_at_ = 0;
+  std::optional<BestTask> best_task_;
   std::deque<double> lags_;
   double loss_ = 0;
   msg::LearnerStatus status_;

@@ -4,7 +4,12 @@
 // its goals in a greedy evaluation.
 #include "learner/local_run.h"
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
 
 namespace coins {
 namespace {
@@ -102,6 +107,70 @@ TEST(LocalRun, FindsActionToPaddleAndTrainsThePaddleSkill) {
   // the actors ran the skill: level-1 goals ended, most reached by the end
   const HierarchyCounters& c = r.actor(0).counters().hierarchy;
   EXPECT_GT(c.goals_ended[0], 100u);
+}
+
+// the task over primitive actions, evaluated every 1000 env steps: the learner keeps the weights
+// of its best evaluation, its checkpoint carries them (a damaged copy is refused, naming the
+// file), and the best-task models act with them
+TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
+  LocalRunOptions o = Options();
+  o.actors = o.shards = 1;
+  o.learner.eval_every_steps = 1000;
+  o.learner.eval_episodes = 3;
+  o.learner.eval_max_steps = 400;
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  msg::ChainCommand task = Command(1, "train-task", 1, 1000);  // 1000 random steps, then paced
+  task.steps_per_update(4.0);
+  ASSERT_TRUE(r.Command(task).ok());
+  std::vector<std::pair<uint64_t, double>> evals;
+  while (evals.size() < 8) {
+    ASSERT_TRUE(r.StepActors(250).ok());
+    ASSERT_TRUE(r.LearnerWork(100).ok());
+    const msg::LearnerStatus st = r.learner().status();
+    if (st.eval_env_steps() && (evals.empty() || st.eval_env_steps() != evals.back().first))
+      evals.emplace_back(st.eval_env_steps(), st.eval_return_mean());
+  }
+  auto best = std::max_element(evals.begin(), evals.end(), [](auto& a, auto& b) { return a.second < b.second; });
+  ASSERT_GT(best->second, std::min_element(evals.begin(), evals.end(), [](auto& a, auto& b) {
+                            return a.second < b.second;
+                          })->second) << "evaluations that all score the same choose nothing";
+  const auto& kept = r.learner().best_task();
+  ASSERT_TRUE(kept.has_value());
+  EXPECT_EQ(kept->level, 1);
+  EXPECT_EQ(kept->env_steps, best->first);  // the first of equal bests
+  EXPECT_DOUBLE_EQ(kept->return_mean, best->second);
+  const bool best_is_newest = best->first == evals.back().first;
+  EXPECT_EQ(kept->acting == r.learner().trainer(1)->ActingBlob(), best_is_newest);
+
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("coins-best-task-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  ASSERT_TRUE(r.learner().SaveCheckpoint(dir.string(), 1, 1).ok());
+  LearnerCore loaded(r.spec(), o.learner, 9);
+  ASSERT_TRUE(loaded.LoadCheckpoint(dir.string()).ok());
+  ASSERT_TRUE(loaded.best_task().has_value());
+  EXPECT_EQ(loaded.best_task()->env_steps, kept->env_steps);
+  EXPECT_DOUBLE_EQ(loaded.best_task()->return_mean, kept->return_mean);
+  EXPECT_TRUE(loaded.best_task()->acting == kept->acting);
+  auto models = loaded.Models(1, /*best_task=*/true);
+  ASSERT_TRUE(models.ok()) << models.status().message();
+
+  // a damaged best-task file fails the load, named
+  std::vector<char> bytes;
+  {
+    std::ifstream in(dir / "task-best.bin", std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_GT(bytes.size(), 100u);
+  bytes[bytes.size() / 2] ^= 0x5a;
+  std::ofstream(dir / "task-best.bin", std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+  LearnerCore damaged(r.spec(), o.learner, 9);
+  const Status s = damaged.LoadCheckpoint(dir.string());
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("task-best.bin"), std::string::npos) << s.message();
+  fs::remove_all(dir);
 }
 
 }  // namespace

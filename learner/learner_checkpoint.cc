@@ -162,8 +162,11 @@ Status LearnerCore::LoadBestTask(const std::string& dir, const nlohmann::json& s
   best_task_.reset();
   if (!state.contains("best_task")) return Status::Ok();
   const json& b = state.at("best_task");
-  BestTask best{b.at("level").get<int>(), b.at("env_steps").get<uint64_t>(), b.at("return_mean").get<double>(),
-                b.at("return_sd").get<double>(), {}};
+  BestTask best{b.at("level").get<int>(),
+                b.at("env_steps").get<uint64_t>(),
+                b.at("return_mean").get<double>(),
+                b.at("return_sd").get<double>(),
+                {}};
   const std::string file = dir + "/" + b.at("file").get<std::string>();
   PolicyTrainer* t = trainer(best.level);
   if (!t || !t->spec().is_task()) return Errorf("{}: the best task's level {} holds no task", file, best.level);

@@ -133,9 +133,9 @@ TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
       evals.emplace_back(st.eval_env_steps(), st.eval_return_mean());
   }
   auto best = std::max_element(evals.begin(), evals.end(), [](auto& a, auto& b) { return a.second < b.second; });
-  ASSERT_GT(best->second, std::min_element(evals.begin(), evals.end(), [](auto& a, auto& b) {
-                            return a.second < b.second;
-                          })->second) << "evaluations that all score the same choose nothing";
+  ASSERT_GT(best->second,
+            std::min_element(evals.begin(), evals.end(), [](auto& a, auto& b) { return a.second < b.second; })->second)
+      << "evaluations that all score the same choose nothing";
   const auto& kept = r.learner().best_task();
   ASSERT_TRUE(kept.has_value());
   EXPECT_EQ(kept->level, 1);

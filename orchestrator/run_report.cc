@@ -346,17 +346,19 @@ std::string FormatSummary(const json& s) {
         s["detector"]["miss_rate"].get<double>(), s["detector"]["labelled"].get<uint64_t>(),
         s["detector"]["states"].get<uint64_t>());
   if (s.contains("eval"))
-    out += fmt::format("  final eval return: {:.2f} +- {:.2f} (evaluated at {} env steps)\n",
+    out += fmt::format("  newest eval return: {:.2f} +- {:.2f} (evaluated at {} env steps)\n",
                        s["eval"]["mean"].get<double>(), s["eval"]["sd"].get<double>(),
                        Short(double(s["eval"]["env_steps"].get<uint64_t>())));
   else
-    out += "  final eval return: none reported\n";
+    out += "  newest eval return: none reported\n";
   if (s.contains("evals") && s["evals"].is_object()) {
     const json& e = s["evals"];
     const json& b = e["best"];
-    out += fmt::format("  best of {} evaluations: {:.2f} +- {:.2f} at {} env steps ({:.0f} s)\n",
-                       e["count"].get<uint64_t>(), b["mean"].get<double>(), b["sd"].get<double>(),
-                       Short(double(b["env_steps"].get<uint64_t>())), b["wall_s"].get<double>());
+    out += fmt::format(
+        "  best of {} evaluations: {:.2f} +- {:.2f} at {} env steps ({:.0f} s): the final policy, "
+        "`coins eval` acts with its weights\n",
+        e["count"].get<uint64_t>(), b["mean"].get<double>(), b["sd"].get<double>(),
+        Short(double(b["env_steps"].get<uint64_t>())), b["wall_s"].get<double>());
     for (const json& r : e["reached"])
       out += r["env_steps"].is_null()
                  ? fmt::format("  eval return >= {:g}: not reached\n", r["return"].get<double>())

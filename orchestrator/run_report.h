@@ -83,7 +83,7 @@ class RunMetrics {
 nlohmann::json DetectorJson(const DetectorCounts& d);
 
 // the summary of a finished run: links (accepted / learned steps, Sc_I, masks, goal sets, skill
-// success), final eval return, wall time, env steps
+// success), the newest eval return, wall time, env steps
 nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
 // the best evaluation ("best": env_steps, mean, sd, wall_s) and, for each return in `targets`, the
 // first evaluation whose mean reached it ("reached": [{return, env_steps, mean, wall_s}], env_steps

@@ -211,7 +211,7 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
       << text;
   EXPECT_NE(text.find("level 2 Paddle->Ball: Sc_I 4.10, accepted at 10.0k, not learned"), std::string::npos) << text;
   EXPECT_NE(text.find("mask [1 0 0]; goals continuous [-1] .. [1]"), std::string::npos) << text;
-  EXPECT_NE(text.find("final eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
+  EXPECT_NE(text.find("newest eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
   EXPECT_NE(text.find("detector Paddle->Ball against the env's labels: 4e-05 false positives per state, 0.0200 of 1600 "
                       "interactions missed (100000 states)"),
             std::string::npos)

@@ -160,7 +160,8 @@ Result<RunMetrics> RunMetrics::Open(const std::string& dir, bool resume) {
     const std::vector<std::string> rows = ResumedRows(csv, MetricsHeader());
     if (!rows.empty()) m.wall_offset_ = std::strtod(rows.back().c_str(), nullptr);
     for (const std::string& row : ResumedRows(eval, kEvalHeader))
-      if (auto e = ParseEvalRow(row)) m.evals_.push_back(*e), m.last_eval_ = std::max(m.last_eval_, e->env_steps);
+      if (auto e = ParseEvalRow(row); e && (m.evals_.empty() || e->env_steps > m.evals_.back().env_steps))
+        m.evals_.push_back(*e);
     if (fs::exists(jsonl)) CompleteLines(jsonl);
   }
   // a resumed run appends to a file that holds its header; everything else starts anew
@@ -216,10 +217,9 @@ void RunMetrics::Append(const MetricsRow& r) {
                                                : json(nullptr)}}
                 .dump()
          << "\n";
-  if (eval && r.eval_env_steps > last_eval_) {
+  if (eval && (evals_.empty() || r.eval_env_steps > evals_.back().env_steps)) {
     eval_ << fmt::format("{},{:.4f},{:.4f},{:.2f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s);
     evals_.push_back({r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s});
-    last_eval_ = r.eval_env_steps;
   }
   // one row a second: flushed, so a run that is killed keeps its metrics
   csv_.flush(), jsonl_.flush(), eval_.flush();
@@ -248,7 +248,7 @@ Result<std::vector<std::string>> RunMetrics::Plot() {
     script += "\nset yrange [*:*]\n";
     files.push_back(out);
   }
-  if (last_eval_ > 0) {
+  if (!evals_.empty()) {
     const std::string out = (fs::path(dir_) / "eval_return.png").string();
     script += fmt::format(
         "set output '{}'\nset title 'Task: greedy eval return'\nset ylabel 'return'\n"

@@ -71,9 +71,8 @@ class RunMetrics {
  private:
   std::string dir_;
   std::ofstream csv_, jsonl_, eval_;
-  uint64_t last_eval_ = 0;
-  double wall_offset_ = 0;  // the resumed run's last wall_s
-  std::vector<EvalPoint> evals_;
+  double wall_offset_ = 0;        // the resumed run's last wall_s
+  std::vector<EvalPoint> evals_;  // in order of env steps
   int levels_ = 0;
   std::vector<std::string> names_;  // the newest link name per level
 };

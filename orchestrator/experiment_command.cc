@@ -10,7 +10,6 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <sstream>
 #include <thread>
 #include <tuple>
 
@@ -21,6 +20,7 @@
 #include "common/files.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
+#include "orchestrator/run_report.h"
 
 namespace coins {
 
@@ -384,18 +384,8 @@ Result<RunResult> ReadRunResult(const std::string& dir) {
   r.wall_s = summary.value("wall_s", 0.0);
   if (summary.contains("eval") && summary["eval"].is_object()) r.final_return = summary["eval"].value("mean", 0.0);
   std::ifstream csv(fs::path(dir) / "eval.csv");
-  std::string line;
-  std::getline(csv, line);  // header
-  while (std::getline(csv, line)) {
-    std::stringstream ss(line);
-    std::string steps, mean;
-    if (!std::getline(ss, steps, ',') || !std::getline(ss, mean, ',')) continue;
-    char* end = nullptr;
-    const uint64_t at = std::strtoull(steps.c_str(), &end, 10);
-    const double ret = std::strtod(mean.c_str(), &end);
-    if (end == mean.c_str() || !std::isfinite(ret)) continue;  // a cut or damaged line
-    r.curve.emplace_back(at, ret);
-  }
+  for (std::string line; std::getline(csv, line);)
+    if (auto e = ParseEvalRow(line)) r.curve.emplace_back(e->env_steps, e->mean);  // not the header, a cut row
   return r;
 }
 

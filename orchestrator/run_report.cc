@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
@@ -140,16 +141,17 @@ std::vector<std::string> ResumedRows(const fs::path& file, const std::string& he
   return {};
 }
 
+}  // namespace
+
 std::optional<EvalPoint> ParseEvalRow(const std::string& row) {
   EvalPoint e;
   std::istringstream in(row);
-  char c1 = 0, c2 = 0, c3 = 0;
-  if (!(in >> e.env_steps >> c1 >> e.mean >> c2 >> e.sd >> c3 >> e.wall_s) || c1 != ',' || c2 != ',' || c3 != ',')
-    return std::nullopt;
+  char c1 = 0, c2 = 0;
+  if (!(in >> e.env_steps >> c1 >> e.mean >> c2 >> e.sd) || c1 != ',' || c2 != ',') return std::nullopt;
+  if (char c3 = 0; in >> c3 && (c3 != ',' || !(in >> e.wall_s))) return std::nullopt;
+  if (!std::isfinite(e.mean) || !std::isfinite(e.sd) || !std::isfinite(e.wall_s)) return std::nullopt;
   return e;
 }
-
-}  // namespace
 
 Result<RunMetrics> RunMetrics::Open(const std::string& dir, bool resume) {
   RunMetrics m;

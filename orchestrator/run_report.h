@@ -50,6 +50,9 @@ struct EvalPoint {
   uint64_t env_steps = 0;
   double mean = 0, sd = 0, wall_s = 0;
 };
+// one data row of eval.csv ("env_steps,eval_return_mean,eval_return_sd[,wall_s]"; files of older
+// runs have no wall_s, read as 0); nullopt for a header, a row cut short or a non-finite value
+std::optional<EvalPoint> ParseEvalRow(const std::string& row);
 
 class RunMetrics {
  public:

@@ -166,6 +166,23 @@ TEST(RunReport, AResumeKeepsMetricsOfAnotherLayoutAsideInsteadOfMixingThem) {
   EXPECT_EQ(Lines(dir / "eval.csv"), std::vector<std::string>{"env_steps,eval_return_mean,eval_return_sd,wall_s"});
 }
 
+TEST(RunReport, EvalRowsOfThisAndOlderRunsAreReadAndDamagedOnesRefused) {
+  const auto now = ParseEvalRow("20000,71.5,30.25,812.5");
+  ASSERT_TRUE(now);
+  EXPECT_EQ(now->env_steps, 20000u);
+  EXPECT_DOUBLE_EQ(now->mean, 71.5);
+  EXPECT_DOUBLE_EQ(now->sd, 30.25);
+  EXPECT_DOUBLE_EQ(now->wall_s, 812.5);
+  const auto older = ParseEvalRow("40000,-3.5,1");  // runs before eval.csv had wall_s
+  ASSERT_TRUE(older);
+  EXPECT_EQ(older->env_steps, 40000u);
+  EXPECT_DOUBLE_EQ(older->mean, -3.5);
+  EXPECT_DOUBLE_EQ(older->wall_s, 0.0);
+  for (const char* bad : {"env_steps,eval_return_mean,eval_return_sd,wall_s", "60000,80", "60000,nan,1,2",
+                          "60000,80,1;2", "60000,80,1,", ""})
+    EXPECT_FALSE(ParseEvalRow(bad)) << bad;
+}
+
 TEST(RunReport, TheSummarySaysTheBestEvaluationAndWhenEachReturnWasFirstReached) {
   const std::vector<EvalPoint> evals = {{20'000, 40, 9, 100},
                                         {40'000, 91.5, 12, 200},

@@ -12,7 +12,8 @@ namespace coins {
 namespace {
 
 // the keys the example sets to values of its own (each with a comment in the file)
-const std::set<std::string> kSetByTheExample = {"run.steps", "run.dir", "run.report_returns"};
+const std::set<std::string> kSetByTheExample = {"run.steps", "run.dir", "run.report_returns",
+                                                "orchestrator.skill_max_steps"};
 
 TEST(ExampleConfig, ListsEveryKeyWithItsDefault) {
   auto text = ReadFileText(COINS_EXAMPLE_CONFIG);

@@ -9,6 +9,7 @@
 
 #include "actors/actor.h"
 #include "actors/weights_store.h"
+#include "common/actor_stats_json.h"
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
@@ -22,27 +23,6 @@
 
 namespace coins {
 namespace {
-
-nlohmann::json StatsJson(const msg::ActorStats& s) {
-  return {{"actor_id", s.actor_id()},
-          {"env", s.env()},
-          {"shard", s.shard()},
-          {"steps", s.steps()},
-          {"episodes", s.episodes()},
-          {"batches", s.batches()},
-          {"transitions_published", s.transitions_published()},
-          {"payload_checksum", s.payload_checksum()},
-          {"publish_retries", s.publish_retries()},
-          {"weights_rejected", s.weights_rejected()},
-          {"env_errors", s.env_errors()},
-          {"goals_clipped", s.goals_clipped()},
-          {"detector",
-           {{"pair", s.detector_pair()},
-            {"states", s.detector_states()},
-            {"labelled", s.detector_truth()},
-            {"false_positives", s.detector_fp()},
-            {"missed", s.detector_fn()}}}};
-}
 
 // the chain side of an actor: the newest command, the weights, the learner's progress; applied
 // to the Actor between steps (its poll hook) and read by its pacing hook
@@ -203,7 +183,8 @@ void ReportFinalStats(dds::Writer<msg::ActorStats>& writer, const msg::ActorStat
   writer.Write(stats);
   writer.WaitAcked(std::chrono::seconds(2));
   if (!stats_out.empty()) {
-    if (Status s = WriteFileAtomic(stats_out, StatsJson(stats).dump() + "\n"); !s.ok()) spdlog::warn("{}", s.message());
+    if (Status s = WriteFileAtomic(stats_out, ActorStatsJson(stats).dump() + "\n"); !s.ok())
+      spdlog::warn("{}", s.message());
   }
   spdlog::info("done: {} steps, {} episodes, {} batches, {} transitions published", stats.steps(), stats.episodes(),
                stats.batches(), stats.transitions_published());

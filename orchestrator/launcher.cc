@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "common/actor_stats_json.h"
 #include "common/cli_checks.h"
 #include "common/dds/discovery.h"
 #include "common/dds/participant_ids.h"
@@ -65,6 +66,11 @@ std::vector<int> LocalDiscoveryServers(const SystemConfig& c) {
   return out;
 }
 
+// where actor i of this run writes its final stats as it exits
+std::string FinalStatsFile(const SystemConfig& c, int64_t i) {
+  return (std::filesystem::path(c.run.dir) / "logs" / fmt::format("actor-{}.final.json", i)).string();
+}
+
 // discovery servers first, then shards so actors find them, then learner and orchestrator, then
 // actors (of this host's roles); shards, learner and orchestrator of a resumed run start from the
 // epoch's files (first start only)
@@ -97,8 +103,14 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     COINS_RETURN_IF_ERROR(sup.Start(spec("coins-replay", fmt::format("replay-{}", k), k, true)));
   if (roles.Has("learner")) COINS_RETURN_IF_ERROR(sup.Start(spec("coins-learner", "learner", -1, true)));
   if (roles.Has("orchestrator")) COINS_RETURN_IF_ERROR(sup.Start(spec("coins-orchestrator", "orchestrator", -1, true)));
-  for (int64_t i : roles.actor_ids)
-    COINS_RETURN_IF_ERROR(sup.Start(spec("coins-actor", fmt::format("actor-{}", i), i, false)));
+  for (int64_t i : roles.actor_ids) {
+    ChildSpec actor = spec("coins-actor", fmt::format("actor-{}", i), i, false);
+    const std::string stats = FinalStatsFile(c, i);
+    std::error_code ec;
+    std::filesystem::remove(stats, ec);  // an earlier run's, in a resumed run's directory
+    actor.argv.insert(actor.argv.end(), {"--stats-out", stats});
+    COINS_RETURN_IF_ERROR(sup.Start(actor));
+  }
   return Status::Ok();
 }
 
@@ -404,6 +416,19 @@ int RunLocal(const RunFlags& flags, const RunSeed& seed) {
     return true;
   };
   for (int i = 0; i < 40 && !reported(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  // an actor that ended before this process's reader matched its writer: its final stats file
+  for (int64_t i : plan.roles.actor_ids) {
+    if ((*collector)->Snapshot().actors.count(uint32_t(i))) continue;
+    const std::string file = FinalStatsFile(c, i);
+    if (!std::filesystem::exists(file)) continue;
+    auto stats = ReadActorStatsFile(file);
+    if (!stats.ok()) {
+      std::cout << "coins run: " << stats.status().message() << "\n";
+      continue;
+    }
+    (*collector)->Report(*stats);
+    std::cout << fmt::format("coins run: actor-{}: final report read from {} (none arrived over DDS)\n", i, file);
+  }
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the shards' final stats, sent as they exited
   StatusView view = (*collector)->Snapshot();
   std::cout << progress.Line(view, sup, progress.elapsed()) << "\n";

@@ -78,6 +78,16 @@ std::vector<msg::InteractionScores> StatusCollector::TakeScores() {
   return out;
 }
 
+void StatusCollector::Apply(const msg::ActorStats& s, StatusView::Clock::time_point now) {
+  view_.actors[s.actor_id()] = {s, now};
+  view_.env_steps.Report(s.actor_id(), s.steps());
+}
+
+void StatusCollector::Report(const msg::ActorStats& s) {
+  std::lock_guard<std::mutex> lock(mu_);
+  Apply(s, StatusView::Clock::now());
+}
+
 void StatusCollector::Loop() {
   while (!stop_) {
     // the status topics are slow (about 1 Hz per process): poll them every 50 ms
@@ -85,10 +95,7 @@ void StatusCollector::Loop() {
     auto now = StatusView::Clock::now();
     std::lock_guard<std::mutex> lock(mu_);
     heartbeats_.TakeAll([&](const msg::ProcessHeartbeat& s, const auto&) { view_.heartbeats[s.name()] = {s, now}; });
-    actors_.TakeAll([&](const msg::ActorStats& s, const auto&) {
-      view_.actors[s.actor_id()] = {s, now};
-      view_.env_steps.Report(s.actor_id(), s.steps());
-    });
+    actors_.TakeAll([&](const msg::ActorStats& s, const auto&) { Apply(s, now); });
     shards_.TakeAll([&](const msg::ReplayStats& s, const auto&) { view_.shards[s.shard_id()] = {s, now}; });
     chain_.TakeAll([&](const msg::ChainStatus& s, const auto&) {
       view_.chain = StatusView::Entry<msg::ChainStatus>{s, now};

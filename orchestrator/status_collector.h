@@ -63,10 +63,13 @@ class StatusCollector {
   // older ones are dropped when nobody takes them)
   std::vector<msg::InteractionScores> TakeScores();
   static constexpr size_t kMaxQueuedScores = 64;
+  // an actor's report that came another way than DDS (its final stats file), taken as if received
+  void Report(const msg::ActorStats& s);
 
  private:
   StatusCollector() = default;
   void Loop();
+  void Apply(const msg::ActorStats& s, StatusView::Clock::time_point now);  // under mu_
 
   dds::Reader<msg::ProcessHeartbeat> heartbeats_;
   dds::Reader<msg::ActorStats> actors_;

@@ -1,8 +1,10 @@
 // LearnerCore checkpoints: RUN_DIR/checkpoints/learner-epoch-N/ holding state.json (job
 // bookkeeping, versions, specs, counters), trainer-L.bin (each level's networks, targets and
 // optimiser moments, common/nn/serialize.h format), detector-T.bin (each target's newest
-// detector) and task-best.bin (the best-evaluated task policy's acting weights, when there is
-// one). The directory is written under a temporary name and renamed whole.
+// detector), task-best.bin (the best-evaluated task policy's acting weights, when there is
+// one) and skill-candidate-K.bin (a training skill's snapshots, or the candidates of a choice of
+// a skill's weights under way: learner/skill_selection.h). The directory is written under a temporary name and renamed
+// whole.
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -77,6 +79,7 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
                       {"return_sd", best_task_->return_sd},
                       {"file", "task-best.bin"}};
   }
+  COINS_RETURN_IF_ERROR(SaveSelection(tmp, &j));
   for (const auto& [target, d] : detectors_) {
     if (!d.det) continue;
     const std::string file = "detector-" + target + ".bin";
@@ -131,6 +134,7 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
                                                         std::make_unique<detector::PairDetector>(std::move(*det))};
     }
     COINS_RETURN_IF_ERROR(LoadBestTask(dir, j));
+    COINS_RETURN_IF_ERROR(LoadSelection(dir, j));
     counters_ = j.at("counters").get<std::map<std::string, uint64_t>>();
     generation_ = j.at("generation").get<uint64_t>() + 1;
     command_.seq(j.at("command_seq").get<uint64_t>());
@@ -277,6 +281,8 @@ Status LearnerCore::KeepTaskFor(const envs::EnvSpec& target) {
 
 void LearnerCore::ForgetJobs() {
   specs_.clear();
+  selection_.reset();
+  snapshots_.Clear();
   best_task_.reset();
   published_.clear();
   command_ = msg::ChainCommand();

@@ -34,7 +34,10 @@ bool IsWaiting(const Status& s) {
 }  // namespace
 
 LearnerCore::LearnerCore(envs::EnvSpec env, LearnerOptions options, uint64_t seed)
-    : env_(std::move(env)), options_(std::move(options)), seed_(seed) {
+    : env_(std::move(env)),
+      options_(std::move(options)),
+      seed_(seed),
+      snapshots_(int(options_.select_snapshots), uint64_t(options_.select_snapshot_every_steps)) {
   status_.schema_version(msg::STATUS_SCHEMA);
   status_.job("idle");
   status_.state("waiting");
@@ -121,6 +124,7 @@ Status LearnerCore::OnCommand(const msg::ChainCommand& cmd, Outputs* out) {
   if (has_command_ && cmd.seq() == command_.seq()) return Status::Ok();
   COINS_RETURN_IF_ERROR(BuildLevels(cmd).WithContext("command " + std::to_string(cmd.seq())));
   const bool same_job_restored = !has_command_ && cmd.seq() == command_.seq() && train_level_ > 0;
+  if (const int ended = EndedSkill(cmd); ended > 0) StartSelection(ended, Candidates(ended));
   command_ = cmd;
   has_command_ = true;
   status_.command_seq(cmd.seq());
@@ -139,6 +143,7 @@ Status LearnerCore::OnCommand(const msg::ChainCommand& cmd, Outputs* out) {
     job_start_updates_ = trainer(level)->updates();
     next_eval_at_ = next_retrain_at_ = 0;
     ClearEval();  // the previous job's evaluation is not this job's
+    if (!trainer(level)->spec().is_task()) snapshots_.Start(level, status_.env_steps());
   }
   train_level_ = level;
   status_.updates(uint64_t(trainer(level)->updates() - job_start_updates_));
@@ -152,6 +157,7 @@ Status LearnerCore::OnCommand(const msg::ChainCommand& cmd, Outputs* out) {
 
 Result<bool> LearnerCore::Work(SampleSource* source, uint64_t env_steps, Outputs* out) {
   status_.env_steps(env_steps);
+  if (selection_) return SelectWork(out);
   if (!has_command_) return false;
   if (command_.job() == "detect") {
     if (detect_done_seq_ == command_.seq()) return false;
@@ -241,6 +247,7 @@ Result<bool> LearnerCore::TrainWork(SampleSource* source, uint64_t env_steps, Ou
   status_.total_updates(status_.total_updates() + 1);
   RecordLag(t->last(), train_level_);
   if ((job_updates + 1) % Group(train_level_, t->spec().is_task()).publish_every == 0) PublishLevel(train_level_, out);
+  if (snapshots_.Due(train_level_, env_steps)) snapshots_.Add(env_steps, t->ActingBlob());
   if (next_eval_at_ == 0) next_eval_at_ = env_steps + uint64_t(options_.eval_every_steps);
   if (env_steps >= next_eval_at_) {
     PublishLevel(train_level_, out);

@@ -29,6 +29,7 @@
 #include "idl/weights.h"
 #include "learner/learner_options.h"
 #include "learner/replay_client/sample_source.h"
+#include "learner/skill_selection.h"
 #include "learner/trainers/detect_round.h"
 #include "learner/trainers/policy_trainer.h"
 
@@ -48,7 +49,9 @@ class LearnerCore {
   Status OnCommand(const msg::ChainCommand& cmd, Outputs* out);
   // one slice of work: a detect round, or one update of the level being trained when the
   // pacing allows (env_steps: every actor's steps so far), plus an evaluation or a detector
-  // retrain when due. Returns false when there was nothing to do.
+  // retrain when due; or, first of all, a slice of choosing the weights of a skill whose training
+  // just ended (learner/skill_selection.h; the new job waits for it). Returns false when there
+  // was nothing to do.
   Result<bool> Work(SampleSource* source, uint64_t env_steps, Outputs* out);
 
   msg::LearnerStatus status() const { return status_; }
@@ -88,6 +91,13 @@ class LearnerCore {
   Result<std::unique_ptr<HierarchyModels>> Models(int levels, bool best_task = false) const;
   // the trainer of a level (null when none)
   PolicyTrainer* trainer(int level) const;
+  // the snapshots of the skill being trained; the choice of a finished skill's weights under
+  // way, and the last one made (null when none)
+  const SkillSnapshots& snapshots() const { return snapshots_; }
+  const SkillSelection* selection() const { return selection_ ? &*selection_ : nullptr; }
+  const SkillSelection* last_choice() const { return chosen_ ? &*chosen_ : nullptr; }
+  // every choice made, oldest first (kept in checkpoints)
+  const std::vector<SkillChoice>& choices() const { return choices_; }
 
  private:
   struct LinkDetector {
@@ -104,6 +114,15 @@ class LearnerCore {
   Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Status Evaluate(uint64_t env_steps);
+  // a skill's training ended (the new command moves on): choose its weights
+  int EndedSkill(const msg::ChainCommand& next) const;
+  std::vector<SkillSnapshot> Candidates(int level) const;  // its snapshots and its final weights
+  void StartSelection(int level, std::vector<SkillSnapshot> candidates);
+  Result<bool> SelectWork(Outputs* out);
+  Result<EvalResult> EvaluateCandidate(int level, const std::vector<uint8_t>& acting, int64_t goals, int64_t max_steps,
+                                       uint64_t seed) const;
+  Status SaveSelection(const std::string& dir, nlohmann::json* state) const;
+  Status LoadSelection(const std::string& dir, const nlohmann::json& state);  // from state.json
   void ClearEval();   // no evaluation reported (a new job starts)
   void ForgetJobs();  // a transfer's new run: no command, job, evaluation or update count
   Status LoadBestTask(const std::string& dir, const nlohmann::json& state);  // from state.json
@@ -130,6 +149,10 @@ class LearnerCore {
   std::deque<double> lags_;
   double loss_ = 0;
   msg::LearnerStatus status_;
+  SkillSnapshots snapshots_;                 // of the skill being trained
+  std::optional<SkillSelection> selection_;  // of a skill whose training ended
+  std::optional<SkillSelection> chosen_;     // the last choice made
+  std::vector<SkillChoice> choices_;
 };
 
 }  // namespace coins

@@ -110,6 +110,11 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
   v.Int("eval_max_steps", eval_max_steps, 1, int64_t(1) << 30, "env steps per evaluation episode at most");
   v.Float("eval_task_explore", eval_task_explore, 0, 1,
           "task epsilon in evaluations (a sac task samples its policy when > 0)");
+  v.Int("select_snapshots", select_snapshots, 0, 64,
+        "snapshots of a training skill among which its final weights are chosen (0: keep the last)");
+  v.Int("select_snapshot_every_steps", select_snapshot_every_steps, 1, int64_t(1) << 40,
+        "env steps between a training skill's snapshots");
+  v.Int("select_goals", select_goals, 1, 10000000, "goals each candidate of a skill's choice is evaluated on");
   v.Int("checkpoint_keep", checkpoint_keep, 1, 1000, "learner checkpoints kept");
   v.Float("shard_wait_s", shard_wait_s, 1, 1e7, "seconds a silent replay shard is waited for before the job fails");
 }

@@ -78,6 +78,13 @@ struct LearnerOptions {
   // the task level's epsilon in evaluations (skills are evaluated greedily): breaks the cycles
   // a greedy task policy can fall into in a deterministic env (actors/evaluate.h)
   double eval_task_explore = 0.05;
+  // the weights a skill keeps when its training ends (learner/skill_selection.h): the best of
+  // its newest select_snapshots snapshots (one every select_snapshot_every_steps env steps of its
+  // training) and its final weights, each evaluated on select_goals goals; select_snapshots 0
+  // keeps the final weights
+  int64_t select_snapshots = 8;
+  int64_t select_snapshot_every_steps = 50000;
+  int64_t select_goals = 20000;
   // checkpoints go to RUN_DIR/checkpoints
   int64_t checkpoint_keep = 3;
   // a replay shard that does not answer is waited for (sampling goes on from the others, or

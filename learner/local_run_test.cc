@@ -173,5 +173,114 @@ TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
   fs::remove_all(dir);
 }
 
+// the paddle skill's training ends: its snapshots and its final weights are evaluated on the same
+// goals and the best kept, published and checkpointed. A checkpoint taken while training keeps
+// the snapshots; one taken mid-choice resumes the choice, which then makes the same choice.
+TEST(LocalRun, AFinishedSkillKeepsTheBestOfItsSnapshotsAndAResumedChoiceMakesTheSameOne) {
+  LocalRunOptions o = Options();
+  o.actors = o.shards = 1;
+  o.learner.eval_every_steps = 1000000;  // no periodic evaluation: only the choice evaluates
+  o.learner.select_snapshots = 3;
+  o.learner.select_snapshot_every_steps = 1500;
+  o.learner.select_goals = 400;
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  ASSERT_TRUE(r.Command(Command(1, "idle", 0, 6000)).ok());
+  ASSERT_TRUE(r.StepActors(100000).ok());
+  msg::ChainCommand detect = Command(2, "detect", 0, 6000);
+  detect.source("Action");
+  detect.targets({"Paddle"});
+  detect.round(1);
+  ASSERT_TRUE(r.Command(detect).ok());
+  ASSERT_TRUE(r.LearnerWork(1).ok());
+  ASSERT_EQ(r.scores().size(), 1u);
+  ASSERT_TRUE(r.scores()[0].scores()[0].pass());
+  msg::ChainCommand train = Command(3, "train-skill", 1, 6500);
+  train.steps_per_update(1.0);
+  train.links({LinkFrom(r.scores()[0].scores()[0])});
+  ASSERT_TRUE(r.Command(train).ok());
+  while (r.env_steps() < 14000) {
+    ASSERT_TRUE(r.StepActors(250).ok());
+    ASSERT_TRUE(r.LearnerWork(1000).ok());
+  }
+  const SkillSnapshots& snaps = r.learner().snapshots();
+  ASSERT_EQ(snaps.all().size(), 3u) << "one every 1500 env steps from 6000, the newest 3";
+  EXPECT_EQ(snaps.level(), 1);
+  EXPECT_GE(snaps.all().back().env_steps, 12000u);
+  EXPECT_NE(snaps.all().front().acting, snaps.all().back().acting);
+
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("coins-skill-choice-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  ASSERT_TRUE(r.learner().SaveCheckpoint((dir / "training").string(), 1, 1).ok());
+  {
+    LearnerCore loaded(r.spec(), o.learner, o.seed);
+    ASSERT_TRUE(loaded.LoadCheckpoint((dir / "training").string()).ok());
+    ASSERT_EQ(loaded.snapshots().all().size(), 3u);
+    for (size_t i = 0; i < 3; ++i) {
+      EXPECT_EQ(loaded.snapshots().all()[i].env_steps, snaps.all()[i].env_steps);
+      EXPECT_EQ(loaded.snapshots().all()[i].acting, snaps.all()[i].acting);
+    }
+    EXPECT_EQ(loaded.snapshots().next_at(), snaps.all().back().env_steps + 1500);
+  }
+
+  // the orchestrator moves on (collecting from the paddle): the choice starts
+  msg::ChainCommand collect = Command(4, "idle", 1, 30000);
+  collect.links(train.links());
+  const std::vector<uint8_t> final_weights = r.learner().trainer(1)->ActingBlob();
+  ASSERT_TRUE(r.Command(collect).ok());
+  ASSERT_NE(r.learner().selection(), nullptr);
+  ASSERT_EQ(r.learner().selection()->candidates().size(), 4u);
+  EXPECT_EQ(r.learner().selection()->candidates().back().acting, final_weights);
+  ASSERT_TRUE(r.LearnerWork(1).ok());  // the first candidate (one slice of 400 goals), then a checkpoint
+  ASSERT_NE(r.learner().selection(), nullptr);
+  ASSERT_TRUE(r.learner().SaveCheckpoint((dir / "choosing").string(), 2, 2).ok());
+  while (r.learner().selection()) ASSERT_TRUE(r.LearnerWork(1).ok());
+  const SkillSelection* choice = r.learner().last_choice();
+  ASSERT_NE(choice, nullptr);
+  for (size_t i = 0; i < 4; ++i) {
+    EXPECT_GE(choice->scores()[i].goals, 400u) << i;
+    EXPECT_LE(choice->scores()[i].success(), choice->scores()[choice->best()].success()) << choice->Table();
+  }
+  const std::vector<uint8_t>& chosen = choice->candidates()[choice->best()].acting;
+  EXPECT_EQ(r.learner().trainer(1)->ActingBlob(), chosen);
+  bool published = false;
+  for (const msg::PolicyWeights& w : r.learner().Latest())
+    if (w.name() == r.learner().trainer(1)->spec().name) {
+      published = true;
+      EXPECT_EQ(w.blob(), chosen) << "the actors get the chosen weights";
+    }
+  EXPECT_TRUE(published);
+
+  LearnerCore resumed(r.spec(), o.learner, o.seed);
+  ASSERT_TRUE(resumed.LoadCheckpoint((dir / "choosing").string()).ok());
+  ASSERT_NE(resumed.selection(), nullptr);
+  LearnerCore::Outputs out;
+  while (resumed.selection()) ASSERT_TRUE(resumed.Work(nullptr, 30000, &out).ok());
+  ASSERT_NE(resumed.last_choice(), nullptr);
+  EXPECT_EQ(resumed.last_choice()->best(), choice->best()) << resumed.last_choice()->Table() << choice->Table();
+  EXPECT_EQ(resumed.last_choice()->Table(), choice->Table());
+  EXPECT_EQ(resumed.trainer(1)->ActingBlob(), chosen);
+  ASSERT_EQ(out.weights.size(), 1u);
+  EXPECT_EQ(out.weights[0].blob(), chosen);
+
+  // a damaged candidate file fails the load, named
+  const fs::path file = dir / "choosing" / "skill-candidate-1.bin";
+  std::vector<char> bytes;
+  {
+    std::ifstream in(file, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_GT(bytes.size(), 100u);
+  bytes.resize(bytes.size() - 7);
+  std::ofstream(file, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  LearnerCore damaged(r.spec(), o.learner, o.seed);
+  const Status s = damaged.LoadCheckpoint((dir / "choosing").string());
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("skill-candidate-1.bin"), std::string::npos) << s.message();
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace coins

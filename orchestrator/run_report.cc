@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "common/files.h"
+#include "learner/checkpoint_dirs.h"
 #include "orchestrator/child_process.h"
 
 namespace coins {
@@ -321,6 +323,27 @@ json EvalMilestones(const std::vector<EvalPoint>& evals, const std::vector<doubl
   return {{"count", evals.size()}, {"best", point(*best)}, {"reached", reached}};
 }
 
+json SkillChoicesOf(const std::string& run_dir) {
+  auto dir = FindCheckpoint(run_dir, -1);
+  if (!dir.ok()) return nullptr;
+  auto text = ReadFileText(*dir + "/state.json");
+  if (!text.ok()) return nullptr;
+  json j = json::parse(*text, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("skill_choices")) return nullptr;
+  return j["skill_choices"];
+}
+
+namespace {
+std::string ChoiceLine(const json& c) {
+  return fmt::format(
+      "    weights of {} env steps kept, the best of {} candidates on {} goals each: hit rate {:.4f}, success "
+      "{:.4f} (the final weights': {:.4f}, {:.4f})\n",
+      Short(double(c.value("env_steps", uint64_t(0)))), c.value("candidates", uint64_t(0)),
+      c.value("goals", uint64_t(0)), c.value("hit_rate", 0.0), c.value("success", 0.0), c.value("final_hit_rate", 0.0),
+      c.value("final_success", 0.0));
+}
+}  // namespace
+
 std::string FormatSummary(const json& s) {
   std::string out = fmt::format("coins run summary: phase {} after {:.1f} s, {} env steps, {} restarts\n",
                                 s.value("phase", "unknown"), s.value("wall_s", 0.0),
@@ -339,6 +362,9 @@ std::string FormatSummary(const json& s) {
     out += fmt::format(
         "    mask {}; goals {}\n", Mask(mask),
         Goals(l["goal_kind"].get<std::string>(), l["goal_set"].get<std::vector<float>>(), MaskedDims(mask)));
+    if (s.contains("skill_choices") && s["skill_choices"].is_array())
+      for (const json& c : s["skill_choices"])
+        if (c.is_object() && c.value("level", 0) == level) out += ChoiceLine(c);
   }
   if (s.contains("detector"))
     out += fmt::format(

@@ -260,5 +260,43 @@ TEST(RunReport, TheFinalEpochIsTheOneCutAfterTheChainWasDone) {
   EXPECT_EQ(FinalEpoch(dir.string()).value_or(0), 5u);
 }
 
+// the newest learner checkpoint's record of the skills' kept weights goes under its link
+TEST(RunReport, TheSummarySaysWhichWeightsEachSkillKept) {
+  fs::path dir = Dir("choices");
+  EXPECT_TRUE(SkillChoicesOf(dir.string()).is_null());
+  auto checkpoint = [&](uint64_t epoch, uint64_t kept_at) {
+    fs::create_directories(dir / "checkpoints" / ("learner-epoch-" + std::to_string(epoch)));
+    nlohmann::json state = {{"format", 1},
+                            {"skill_choices",
+                             {{{"level", 2},
+                               {"skill", "skill/Ball"},
+                               {"candidates", 9},
+                               {"goals", 20000},
+                               {"env_steps", kept_at},
+                               {"hit_rate", 0.9921},
+                               {"success", 0.9311},
+                               {"final_env_steps", 866'200},
+                               {"final_hit_rate", 0.9802},
+                               {"final_success", 0.9105}}}}};
+    std::ofstream(dir / "checkpoints" / ("learner-epoch-" + std::to_string(epoch)) / "state.json") << state.dump();
+  };
+  checkpoint(4, 500'000);
+  checkpoint(7, 712'345);
+  auto summary = RunSummary(
+      View(1'000'000, {Link("Action", "Paddle", 4.3, 1, "learned"), Link("Paddle", "Ball", 9000, 0.9, "learned")},
+           1'000'000, 90),
+      3000, 0);
+  summary["skill_choices"] = SkillChoicesOf(dir.string());
+  const std::string text = FormatSummary(summary);
+  const std::string line =
+      "    weights of 712.3k env steps kept, the best of 9 candidates on 20000 goals each: hit rate 0.9921, success "
+      "0.9311 (the final weights': 0.9802, 0.9105)\n";
+  const size_t at = text.find(line);
+  ASSERT_NE(at, std::string::npos) << text;
+  EXPECT_LT(text.find("level 2 Paddle->Ball"), at);
+  EXPECT_EQ(text.find("kept, the best of"), text.rfind("kept, the best of")) << "level 1 made no choice";
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace coins

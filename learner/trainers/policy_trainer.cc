@@ -110,7 +110,18 @@ const nn::ParamSet& PolicyTrainer::acting_params() const {
   return dqn_ ? dqn_->online().params() : sac_ ? sac_->actor().params() : ddpg_->actor().params();
 }
 
+nn::ParamSet& PolicyTrainer::acting_params() {
+  return dqn_ ? dqn_->online().params() : sac_ ? sac_->actor().params() : ddpg_->actor().params();
+}
+
 std::vector<uint8_t> PolicyTrainer::ActingBlob() const { return nn::ToBlob(acting_params()); }
+
+Status PolicyTrainer::LoadActing(std::span<const uint8_t> blob) {
+  nn::ParamSet loaded = acting_params();
+  COINS_RETURN_IF_ERROR(nn::FromBlob(blob, &loaded, spec_.name + " acting weights"));
+  nn::HardUpdate(loaded, &acting_params());  // in place: the networks keep their views
+  return Status::Ok();
+}
 
 rl::AlgorithmState PolicyTrainer::ExportState() const {
   return dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();

@@ -47,6 +47,10 @@ class PolicyTrainer {
   int64_t updates() const;
   // weights of the acting network (PolicyNet layout)
   std::vector<uint8_t> ActingBlob() const;
+  // replaces the acting network's weights (a blob of ActingBlob's layout; a damaged or foreign
+  // one is refused and nothing changes). The algorithm's other networks and optimiser state stay
+  // as they are: for a skill whose training has ended (learner/skill_selection.h).
+  Status LoadActing(std::span<const uint8_t> blob);
   rl::AlgorithmState ExportState() const;
   Status ImportState(const rl::AlgorithmState& state);
 
@@ -57,6 +61,7 @@ class PolicyTrainer {
   PolicyTrainer(policy::LevelSpec spec, LevelTrainOptions options);
   void ToBatch(const SampleColumns& c);
   const nn::ParamSet& acting_params() const;
+  nn::ParamSet& acting_params();
 
   policy::LevelSpec spec_;
   LevelTrainOptions options_;

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 namespace coins {
 namespace {
@@ -34,6 +35,18 @@ msg::LinkSpec LinkFrom(const msg::InteractionScore& s) {
   l.goal_set(s.goal_set());
   l.interaction_rate(s.interaction_rate());
   return l;
+}
+
+// rewrites a file with `damage` applied to its bytes
+void Damage(const std::filesystem::path& file, const std::function<void(std::vector<char>&)>& damage) {
+  std::vector<char> bytes;
+  {
+    std::ifstream in(file, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_GT(bytes.size(), 100u) << file;
+  damage(bytes);
+  std::ofstream(file, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
 }
 
 LocalRunOptions Options() {
@@ -158,14 +171,7 @@ TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
   ASSERT_TRUE(models.ok()) << models.status().message();
 
   // a damaged best-task file fails the load, named
-  std::vector<char> bytes;
-  {
-    std::ifstream in(dir / "task-best.bin", std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  ASSERT_GT(bytes.size(), 100u);
-  bytes[bytes.size() / 2] ^= 0x5a;
-  std::ofstream(dir / "task-best.bin", std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+  Damage(dir / "task-best.bin", [](std::vector<char>& b) { b[b.size() / 2] ^= 0x5a; });
   LearnerCore damaged(r.spec(), o.learner, 9);
   const Status s = damaged.LoadCheckpoint(dir.string());
   ASSERT_FALSE(s.ok());
@@ -266,15 +272,7 @@ TEST(LocalRun, AFinishedSkillKeepsTheBestOfItsSnapshotsAndAResumedChoiceMakesThe
   EXPECT_EQ(out.weights[0].blob(), chosen);
 
   // a damaged candidate file fails the load, named
-  const fs::path file = dir / "choosing" / "skill-candidate-1.bin";
-  std::vector<char> bytes;
-  {
-    std::ifstream in(file, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  ASSERT_GT(bytes.size(), 100u);
-  bytes.resize(bytes.size() - 7);
-  std::ofstream(file, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  Damage(dir / "choosing" / "skill-candidate-1.bin", [](std::vector<char>& b) { b.resize(b.size() - 7); });
   LearnerCore damaged(r.spec(), o.learner, o.seed);
   const Status s = damaged.LoadCheckpoint((dir / "choosing").string());
   ASSERT_FALSE(s.ok());

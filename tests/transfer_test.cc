@@ -46,6 +46,7 @@ learner:
   eval_episodes: 2
   eval_max_steps: 3000
   checkpoint_keep: 20
+  select_goals: 500
 detector:
   passive_steps: 50
   passive_hard_steps: 50
@@ -112,6 +113,11 @@ void MakeSourceRun(const fs::path& run) {
   detect.targets({"Ball"});
   detect.round(1);
   ASSERT_TRUE(r.Command(detect).ok());
+  // the paddle skill's weights are chosen first (learner/skill_selection.h), then the round runs
+  ASSERT_NE(r.learner().selection(), nullptr);
+  for (int i = 0; i < 100 && r.learner().selection(); ++i) ASSERT_TRUE(r.LearnerWork(1).ok());
+  ASSERT_EQ(r.learner().selection(), nullptr);
+  ASSERT_EQ(r.learner().choices().size(), 1u);
   auto detected = r.LearnerWork(1);
   ASSERT_TRUE(detected.ok()) << detected.status().message();
   ASSERT_TRUE(r.Command(Command(4, "train-skill", 2, r.env_steps() + 2000, {paddle, ball})).ok());

@@ -174,14 +174,20 @@ Status LearnerCore::LoadBestTask(const std::string& dir, const nlohmann::json& s
   const std::string file = dir + "/" + b.at("file").get<std::string>();
   PolicyTrainer* t = trainer(best.level);
   if (!t || !t->spec().is_task()) return Errorf("{}: the best task's level {} holds no task", file, best.level);
-  auto blob = ReadFileBytes(file);
+  auto blob = ReadActingFile(t->spec(), file);
   if (!blob.ok()) return blob.status();
-  auto net = policy::PolicyNet::Create(t->spec());
-  if (!net.ok()) return net.status();
-  COINS_RETURN_IF_ERROR(net->Load(*blob, file));  // a damaged or foreign file is refused here
   best.acting = std::move(*blob);
   best_task_ = std::move(best);
   return Status::Ok();
+}
+
+Result<std::vector<uint8_t>> LearnerCore::ReadActingFile(const policy::LevelSpec& spec, const std::string& file) {
+  auto blob = ReadFileBytes(file);
+  if (!blob.ok()) return blob.status();
+  auto net = policy::PolicyNet::Create(spec);
+  if (!net.ok()) return net.status();
+  COINS_RETURN_IF_ERROR(net->Load(*blob, file));
+  return std::move(*blob);
 }
 
 namespace {

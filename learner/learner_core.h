@@ -126,6 +126,8 @@ class LearnerCore {
   void ClearEval();   // no evaluation reported (a new job starts)
   void ForgetJobs();  // a transfer's new run: no command, job, evaluation or update count
   Status LoadBestTask(const std::string& dir, const nlohmann::json& state);  // from state.json
+  // an acting-weights file of a level with `spec` (a damaged or foreign one is refused, named)
+  static Result<std::vector<uint8_t>> ReadActingFile(const policy::LevelSpec& spec, const std::string& file);
   Status RetrainDetector(SampleSource* source, uint64_t env_steps, Outputs* out);
   void RecordLag(const SampleColumns& c, int level);
   DetectRoundOptions RoundOptions() const;

@@ -10,7 +10,6 @@
 
 #include "actors/envs/env.h"
 #include "common/files.h"
-#include "common/policy/policy_net.h"
 #include "learner/learner_core.h"
 
 namespace coins {
@@ -123,12 +122,8 @@ Status LearnerCore::LoadSelection(const std::string& dir, const json& state) {
   if (!t || t->spec().is_task()) return Errorf("{}: skill snapshots of level {}, which holds no skill", dir, level);
   std::vector<SkillSnapshot> list;
   for (const json& sj : j.at("list")) {
-    const std::string file = dir + "/" + sj.at("file").get<std::string>();
-    auto blob = ReadFileBytes(file);
+    auto blob = ReadActingFile(t->spec(), dir + "/" + sj.at("file").get<std::string>());
     if (!blob.ok()) return blob.status();
-    auto net = policy::PolicyNet::Create(t->spec());
-    if (!net.ok()) return net.status();
-    COINS_RETURN_IF_ERROR(net->Load(*blob, file));  // a damaged or foreign file is refused here
     list.push_back({sj.at("env_steps").get<uint64_t>(), std::move(*blob)});
   }
   if (j.at("selecting").get<bool>()) {

@@ -4,6 +4,7 @@
 #include <mutex>
 #include <sstream>
 
+#include <fastrtps/xmlparser/XMLProfileManager.h>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/log/Log.hpp>
 
@@ -33,11 +34,21 @@ std::string PublisherOf(const SampleInfo& info) {
 }
 
 namespace {
-// Fast DDS prints only its errors; COINS_FASTDDS_LOG=warning (or info, where compiled in) shows
-// more of its own log on stderr, for debugging discovery and transports
-void ShowFastDdsLog() {
+// Process-wide Fast DDS settings, applied once before the first participant:
+// - Fast DDS prints only its errors; COINS_FASTDDS_LOG=warning (or info, where compiled in) shows
+//   more of its own log on stderr, for debugging discovery and transports.
+// - No intraprocess delivery: two participants of one process (an actor's node and its
+//   transition sink) talk through shared memory like any two processes. Fast DDS 2.9 keeps a raw
+//   pointer to a matched reader of another participant in the same process; when that
+//   participant is deleted first, deleting the next one's writers could send a gap through the
+//   dangling pointer (seen: coins-actor exiting with SIGSEGV in StatefulWriter::intraprocess_gap
+//   about one exit in 15 on a loaded machine).
+void ConfigureFastDdsOnce() {
   static std::once_flag once;
   std::call_once(once, [] {
+    eprosima::fastrtps::LibrarySettingsAttributes library;
+    library.intraprocess_delivery = eprosima::fastrtps::INTRAPROCESS_OFF;
+    eprosima::fastrtps::xmlparser::XMLProfileManager::library_settings(library);
     const char* level = std::getenv("COINS_FASTDDS_LOG");
     if (!level) return;
     if (std::string(level) == "warning") Log::SetVerbosity(Log::Warning);
@@ -47,7 +58,6 @@ void ShowFastDdsLog() {
 }  // namespace
 
 Result<std::unique_ptr<Node>> Node::Create(const DdsOptions& options, const std::string& name) {
-  ShowFastDdsLog();
   DomainParticipantQos qos = PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   COINS_RETURN_IF_ERROR(ConfigureParticipant(options, qos));
@@ -70,6 +80,7 @@ Result<std::unique_ptr<Node>> Node::CreateDiscoveryServer(const DdsOptions& opti
 }
 
 Result<std::unique_ptr<Node>> Node::Open(const DdsOptions& options, DomainParticipantQos& qos) {
+  ConfigureFastDdsOnce();
   // an id whose ports no killed process left behind (participant_ids.h), chosen under the
   // machine-wide lock that lasts until this participant's ports are open
   const int domain = static_cast<int>(options.domain);

@@ -47,6 +47,8 @@ Status LevelTrainOptions::Validate(const std::string& p) const {
   if (atoms > 1 && !(v_max > v_min)) return Errorf("{}v_max {} must exceed {}v_min {}", p, v_max, p, v_min);
   for (double o : child_offsets)
     if (!(o >= -1 && o <= 1)) return Errorf("{}child_offsets: {} is not in [-1, 1]", p, o);
+  if (p == "primitive_" && decision_period > 1)
+    return Errorf("{}decision_period {}: primitive actions are chosen every env step (0 or 1)", p, decision_period);
   if (child_offsets.size() == 1) return Errorf("{}child_offsets needs at least 2 entries (or none)", p);
   for (double h : pair_hidden)
     if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}pair_hidden: {} is not a layer size", p, h);

@@ -38,6 +38,11 @@ Status Load(SystemConfig& c, const std::string& file, const std::vector<std::str
   COINS_RETURN_IF_ERROR(CheckShardMemory(c.replay, c.run.shards));
   auto env = envs::MakeEnv(c.run.env);
   if (!env.ok()) return env.status().WithContext("run.env");
+  if (c.orchestrator.chain == "none" && c.learner.task.decision_period > 1)
+    return Errorf(
+        "learner.task_decision_period {}: with orchestrator.chain none the task acts on primitive actions, "
+        "every env step (0 or 1)",
+        c.learner.task.decision_period);
   if (effective) *effective = loader.Dump();
   return Status::Ok();
 }

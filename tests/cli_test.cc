@@ -29,6 +29,8 @@ TEST(Cli, BadRunInputIsRefusedBeforeStarting) {
   ExpectRefused("--env brekout", "brekout");
   ExpectRefused("--set replay.capcity=5", "unknown key 'replay.capcity' (did you mean 'capacity'?)");
   ExpectRefused("--set actor.envs=many", "actor.envs: expected an integer, got 'many'");
+  ExpectRefused("--set learner.primitive_decision_period=4", "primitive_decision_period 4: primitive actions");
+  ExpectRefused("--set orchestrator.chain=none --set learner.task_decision_period=4", "task_decision_period 4");
   auto dir = TempDir("cli-config");
   std::ofstream(dir / "bad.yaml") << "run:\n  actors: 2\n  shardz: 3\n";
   ExpectRefused("--config " + (dir / "bad.yaml").string(), "unknown key 'run.shardz' (did you mean 'shards'?)");

@@ -175,7 +175,6 @@ Result<LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const LevelSpec& top, 
   s.name = "task";
   s.level = top.level + 1;
   SetNetwork(o, &s);
-  s.decision_period = 0;
   AddStateFactors(env, o, &s);
   const int fs = top.source == "Action" ? -1 : env.factor_index(top.source);
   AddRelative(env, fs, env.factor_index(top.goal.factor), &s);
@@ -198,6 +197,9 @@ Result<LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTr
   }
   for (size_t a = 0; a < single.size(); ++a)
     for (size_t b = a + 1; b < single.size(); ++b) AddRelative(env, single[a], single[b], &s);
+  if (o.decision_period > 1)
+    return Errorf("learner.task_decision_period {}: the task over primitive actions of {} acts every env step (0 or 1)",
+                  o.decision_period, env.name);
   SetPrimitiveActions(env, o, &s);
   if (s.algorithm != o.algorithm)
     return Errorf("the task over primitive actions of {} needs learner.task_algorithm {} (it is {})", env.name,

@@ -68,6 +68,10 @@ TEST(LevelBuilder, BreakoutChainLevels) {
   EXPECT_EQ(task->action_kind, policy::ActionKind::kChildDiscrete);
   EXPECT_EQ(task->num_actions, 4);
   EXPECT_EQ(task->obs_dim(), 5 + 5 + 100 * 5 + 2);  // paddle, ball, blocks, relative
+  EXPECT_EQ(task->decision_period, 0);              // default: a ball goal runs until it ends
+  LevelTrainOptions periodic = o.task;              // learner.task_decision_period is honoured
+  periodic.decision_period = 7;
+  EXPECT_EQ(BuildTaskSpec(b.spec, *ball, periodic)->decision_period, 7);
 
   // a discrete goal set whose size does not fit the mask is refused, naming the link
   msg::LinkSpec bad = b.ball;

@@ -60,6 +60,9 @@ class Actor {
   // used up it publishes its partial batches and waits (polling, bounded sleeps). Partial
   // batches are published before returning.
   void Run(uint64_t max_steps, const Hooks& hooks);
+  // before Run: counters.steps starts from `steps` (a resumed run's actor counts on from its
+  // share of the run's env steps, which max_steps and the allowance are measured in)
+  void CountStepsFrom(uint64_t steps) { counters_.steps = steps; }
   // the earlier form: uniform random actions unless configured
   void Run(uint64_t max_steps, const std::function<bool()>& stop,
            const std::function<void(const ActorCounters&)>& on_period, std::chrono::milliseconds period);

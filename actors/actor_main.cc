@@ -137,8 +137,9 @@ Result<std::unique_ptr<DdsBatchSink>> OpenSink(const DdsOptions& dds, const std:
 // ActorStats: filled from the actor's counters with the step rate since the last fill
 class StatsReporter {
  public:
-  StatsReporter(int64_t id, const std::string& env, int64_t shard, const DdsBatchSink& sink, const ChainFollower* chain)
-      : sink_(sink), chain_(chain) {
+  StatsReporter(int64_t id, const std::string& env, int64_t shard, const DdsBatchSink& sink, const ChainFollower* chain,
+                uint64_t first_step)
+      : sink_(sink), chain_(chain), last_steps_(first_step) {
     stats_.schema_version(msg::STATUS_SCHEMA);
     stats_.actor_id(static_cast<uint32_t>(id));
     stats_.env(env);
@@ -206,6 +207,9 @@ int ActorMain(int argc, char** argv) {
   main.AddSection(ConfigSection::Of("actor", options));
   main.app().add_option("--id", id, "actor id (publishes to shard id mod run.shards)")->check(CLI::Range(0, 1 << 20));
   main.app().add_option("--stats-out", stats_out, "write the final ActorStats as JSON to this file");
+  uint64_t first_step = 0;
+  main.app().add_option("--first-step", first_step,
+                        "count env steps from here (a resumed run: this actor's share of the run's steps)");
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (main.name() == "coins-actor") main.name() = "actor-" + std::to_string(id);
 
@@ -232,7 +236,8 @@ int ActorMain(int argc, char** argv) {
   heartbeat.Publish("running");
 
   // status: ActorStats with the step rate over the last period
-  StatsReporter stats(id, run.env, shard, **sink, chain.get());
+  (*actor)->CountStepsFrom(first_step);
+  StatsReporter stats(id, run.env, shard, **sink, chain.get(), first_step);
   Actor::Hooks hooks;
   hooks.stop = [] { return StopRequested(); };
   hooks.period = std::chrono::milliseconds(static_cast<int64_t>(options.status_period_s * 1000));

@@ -109,6 +109,9 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     std::error_code ec;
     std::filesystem::remove(stats, ec);  // an earlier run's, in a resumed run's directory
     actor.argv.insert(actor.argv.end(), {"--stats-out", stats});
+    // a resumed run's actors count on from the epoch's env steps, split as the pacing splits them
+    const uint64_t n = plan.resume_env_steps, actors = uint64_t(std::max<int64_t>(c.run.actors, 1));
+    if (n > 0) actor.first_start = {"--first-step", std::to_string(n / actors + (uint64_t(i) < n % actors ? 1 : 0))};
     COINS_RETURN_IF_ERROR(sup.Start(actor));
   }
   return Status::Ok();

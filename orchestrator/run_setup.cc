@@ -47,15 +47,15 @@ Status Load(SystemConfig& c, const std::string& file, const std::vector<std::str
   return Status::Ok();
 }
 
-// the newest complete epoch of the run whose file loads with this config
-Result<int64_t> NewestEpoch(const fs::path& chain_dir, const ConfigValues& fingerprint,
-                            std::vector<std::string>* notes) {
+// the newest complete epoch of the run whose file loads with this config, and its env steps
+Result<std::pair<int64_t, uint64_t>> NewestEpoch(const fs::path& chain_dir, const ConfigValues& fingerprint,
+                                                 std::vector<std::string>* notes) {
   chain::ChainStore store(chain_dir, fingerprint);
   store.AcceptKeysAddedSince(ChainFingerprint(SystemConfig{}.Values()));
   std::vector<uint64_t> epochs = chain::ChainStore::Epochs(chain_dir);
   for (auto it = epochs.rbegin(); it != epochs.rend(); ++it) {
     auto s = store.LoadEpoch(*it);
-    if (s.ok()) return int64_t(*it);
+    if (s.ok()) return std::pair{int64_t(*it), s->env_steps};
     notes->push_back(fmt::format("coins run: skipping epoch {}: {}", *it, s.status().message()));
   }
   return Errorf("no complete checkpoint epoch in {} (nothing to resume from; start a new run)", chain_dir.string());
@@ -92,7 +92,8 @@ Status PrepareResume(const RunFlags& f, SystemConfig& c, RunPlan* plan) {
   if (!plan->roles.Has("orchestrator")) return Status::Ok();
   auto epoch = NewestEpoch(fs::path(dir) / "chain", theirs, &plan->notes);
   if (!epoch.ok()) return epoch.status();
-  plan->resume_epoch = *epoch;
+  plan->resume_epoch = epoch->first;
+  plan->resume_env_steps = epoch->second;
   return Status::Ok();
 }
 

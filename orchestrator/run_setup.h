@@ -12,7 +12,8 @@
 // Resume: RUN_DIR/config.yaml, then the flags and overrides; any change of a key the chain
 // depends on (config_values.h: all but the operational keys), through --config or an override,
 // is refused with one line naming the key. The run continues from the newest complete epoch
-// whose chain-epoch-N.json loads.
+// whose chain-epoch-N.json loads. Its actors count env steps on from the epoch's (split among
+// them), so the chain's step bases, budgets and pacing go on where they stopped.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +30,7 @@ namespace coins {
 struct RunPlan {
   std::string effective;           // the effective config (YAML), written to RUN_DIR/config.yaml
   int64_t resume_epoch = -1;       // >= 0: resuming this epoch
+  uint64_t resume_env_steps = 0;   // the run's env steps at that epoch: the actors count on from it
   bool resuming = false;           // --resume: the run directory's state is kept
   RunRoles roles;                  // what this host runs
   std::vector<std::string> notes;  // lines to print before the run starts

@@ -231,6 +231,11 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   const std::vector<std::string> first_rows = Lines(ReadText(run / "metrics.csv"));
   ASSERT_GT(first_rows.size(), 2u);
   const std::string e = std::to_string(epoch);
+  const uint64_t epoch_steps = nlohmann::json::parse(ReadText(run / "chain" / ("chain-epoch-" + e + ".json")))
+                                   .at("state")
+                                   .at("env_steps")
+                                   .get<uint64_t>();
+  ASSERT_GT(epoch_steps, 0u);
 
   auto second = ChildProcess::Spawn(
       "coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run --resume " + run.string() + " --steps 0"},
@@ -259,6 +264,10 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   EXPECT_NE(out.find("resuming epoch " + e), std::string::npos) << out;
   EXPECT_NE(out.find("skipping epoch " + std::to_string(epoch + 5)), std::string::npos) << out;
   EXPECT_EQ(out.find("removed the previous run"), std::string::npos) << out;
+  // the actor counted on from the epoch's env steps (the chain's step bases and pacing are in
+  // the run's steps: counting from 0 again would let it run unpaced while the learner waited)
+  const auto actor = nlohmann::json::parse(ReadText(run / "logs" / "actor-0.final.json"));
+  EXPECT_GT(actor.at("steps").get<uint64_t>(), epoch_steps) << actor.dump();
   // the resumed run appended its metrics rows after the first run's, its wall clock going on
   const std::vector<std::string> rows = Lines(ReadText(run / "metrics.csv"));
   ASSERT_GT(rows.size(), first_rows.size());

@@ -23,6 +23,11 @@ class EnvStepCount {
     return n;
   }
   bool empty() const { return actors_.empty(); }
+  // the newest cumulative count actor_id reported (0: none yet): where a restart of it counts on from
+  uint64_t last(uint32_t actor_id) const {
+    auto it = actors_.find(actor_id);
+    return it == actors_.end() ? 0 : it->second.last;
+  }
 
  private:
   struct Actor {

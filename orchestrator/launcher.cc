@@ -2,6 +2,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -73,9 +74,9 @@ std::string FinalStatsFile(const SystemConfig& c, int64_t i) {
 
 // discovery servers first, then shards so actors find them, then learner and orchestrator, then
 // actors (of this host's roles); shards, learner and orchestrator of a resumed run start from the
-// epoch's files (first start only)
+// epoch's files (first start only). `collector` outlives the supervisor's restarts.
 Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& config_path, const RunPlan& plan,
-                     const dds::Node& node) {
+                     const dds::Node& node, const StatusCollector& collector) {
   const std::string bin = SelfDirectory();
   const RunRoles& roles = plan.roles;
   auto spec = [&](const std::string& binary, const std::string& name, int64_t id, bool resumes) {
@@ -109,9 +110,16 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     std::error_code ec;
     std::filesystem::remove(stats, ec);  // an earlier run's, in a resumed run's directory
     actor.argv.insert(actor.argv.end(), {"--stats-out", stats});
-    // a resumed run's actors count on from the epoch's env steps, split as the pacing splits them
+    // a resumed run's actors count on from the epoch's env steps, split as the pacing splits them;
+    // a restarted actor from the count it reported last (the pacing allows run steps: counting
+    // from 0 again it would run ahead of the learner)
     const uint64_t n = plan.resume_env_steps, actors = uint64_t(std::max<int64_t>(c.run.actors, 1));
-    if (n > 0) actor.first_start = {"--first-step", std::to_string(n / actors + (uint64_t(i) < n % actors ? 1 : 0))};
+    const uint64_t share = n / actors + (uint64_t(i) < n % actors ? 1 : 0);
+    if (share > 0) actor.first_start = {"--first-step", std::to_string(share)};
+    actor.restart_args = [&collector, id = uint32_t(i), share] {
+      return std::vector<std::string>{"--first-step",
+                                      std::to_string(std::max(share, collector.Snapshot().env_steps.last(id)))};
+    };
     COINS_RETURN_IF_ERROR(sup.Start(actor));
   }
   return Status::Ok();
@@ -392,7 +400,7 @@ int RunLocal(const RunFlags& flags, const RunSeed& seed) {
 
   Supervisor sup((std::filesystem::path(c.run.dir) / "logs").string(), c.run.max_restarts);
   std::vector<ChildProcess>& children = sup.children();
-  if (Status started = StartChildren(sup, c, config_path, plan, **node); !started.ok()) {
+  if (Status started = StartChildren(sup, c, config_path, plan, **node, **collector); !started.ok()) {
     std::cerr << "coins run: " << started.message() << "\n";
     StopAll(children, std::chrono::seconds(5));
     return 1;

@@ -32,6 +32,10 @@ Status Supervisor::Spawn(size_t i, bool first) {
   const ChildSpec& spec = slots_[i].spec;
   std::vector<std::string> argv = spec.argv;
   if (first) argv.insert(argv.end(), spec.first_start.begin(), spec.first_start.end());
+  if (!first && spec.restart_args) {
+    const std::vector<std::string> more = spec.restart_args();
+    argv.insert(argv.end(), more.begin(), more.end());
+  }
   auto child = ChildProcess::Spawn(spec.name, argv, log_dir_ + "/" + spec.name + ".log", !first);
   if (!child.ok()) return child.status();
   children_[i] = std::move(*child);

@@ -5,10 +5,12 @@
 // restarted: an actor that finished its steps (exit 0 while actors may finish), and a child that
 // exited with code 2 (bad flags or config: a restart cannot help). A restart leaves out the
 // child's first-start-only arguments (`--resume-epoch N`): a restarted process resumes from its
-// own newest files. Poll() never blocks.
+// own newest files; it gets the arguments restart_args returns at that moment instead (an actor:
+// `--first-step`, the step count it had reported). Poll() never blocks.
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -22,6 +24,7 @@ struct ChildSpec {
   std::vector<std::string> argv;         // argv[0] is the executable
   std::vector<std::string> first_start;  // arguments of the first start only
   bool actor = false;
+  std::function<std::vector<std::string>()> restart_args{};  // arguments of each restart (optional)
 };
 
 class Supervisor {

@@ -80,6 +80,22 @@ TEST(Supervisor, FirstStartArgumentsAreLeftOutOfARestart) {
   EXPECT_EQ(text.str(), "args: --resume-epoch 4\nargs: \n");
 }
 
+TEST(Supervisor, RestartArgumentsAreAskedForAtEachRestart) {
+  fs::path logs = LogDir("restart-args");
+  Supervisor sup(logs.string(), 2);
+  ChildSpec spec = Shell("actor-0", "echo \"args: $*\"; exit 1", true);
+  spec.first_start = {"--first-step", "10"};
+  int asked = 0;
+  spec.restart_args = [&asked] { return std::vector<std::string>{"--first-step", std::to_string(100 * ++asked)}; };
+  ASSERT_TRUE(sup.Start(spec).ok());
+  PollUntil(sup, false, [](const auto& e) { return Count(e, Kind::kFailed) > 0; });
+  std::ifstream in(logs / "actor-0.log");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), "args: --first-step 10\nargs: --first-step 100\nargs: --first-step 200\n");
+  EXPECT_EQ(asked, 2);
+}
+
 TEST(Supervisor, BadConfigIsNotRetriedAndFinishedActorsAreNotRestarted) {
   Supervisor sup(LogDir("norestart").string(), 3);
   ASSERT_TRUE(sup.Start(Shell("actor-0", "exit 0", true)).ok());

@@ -257,6 +257,14 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   auto inspect = RunCommand(Bin("coins") + " replay inspect --json " + snapshot);
   ASSERT_EQ(inspect.code, 0) << snapshot << "\n" << inspect.output;
   EXPECT_EQ(nlohmann::json::parse(inspect.output)["meta"]["command_id"], CheckpointCommandId(epoch));
+  // an actor killed inside the run is restarted counting on from the steps it had reported
+  const std::string last_row = Lines(ReadText(run / "metrics.csv")).back();
+  const size_t column = last_row.find(',') + 1;
+  const uint64_t before_kill = std::stoull(last_row.substr(column, last_row.find(',', column) - column));
+  RunCommand("pkill -9 -f '[c]oins-actor.*" + run.string() + "/'");
+  EXPECT_TRUE(WaitUntil([&] { return ReadText(dir / "resume.log").find("actor-0 restarted") != std::string::npos; },
+                        std::chrono::seconds(30)))
+      << ReadText(dir / "resume.log");
   coins[0].Signal(SIGTERM);
   ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
   const std::string out = ReadText(dir / "resume.log");
@@ -268,6 +276,7 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   // the run's steps: counting from 0 again would let it run unpaced while the learner waited)
   const auto actor = nlohmann::json::parse(ReadText(run / "logs" / "actor-0.final.json"));
   EXPECT_GT(actor.at("steps").get<uint64_t>(), epoch_steps) << actor.dump();
+  EXPECT_GT(actor.at("steps").get<uint64_t>(), before_kill) << actor.dump();
   // the resumed run appended its metrics rows after the first run's, its wall clock going on
   const std::vector<std::string> rows = Lines(ReadText(run / "metrics.csv"));
   ASSERT_GT(rows.size(), first_rows.size());

@@ -33,7 +33,8 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   c.shards_n = 1;
   c.actors_n = 1;
   fs::path snaps = c.dir / "snapshots";
-  // room for everything the actor sends during the test: no eviction, so checksums add up
+  // room for most of what the actor sends during the test (an unpaced actor on a fast machine
+  // can still fill it: the checks below hold either way, the checksums only without eviction)
   std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string(),
                                     "--set", "replay.capacity=3000000",
                                     "--set", "replay.capacity_mb=400"};
@@ -52,7 +53,9 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   ASSERT_TRUE(snap["valid"].get<bool>()) << snap.dump();
   const auto& ledger = snap["ledger"][0];
   const uint64_t snap_transitions = ledger["transitions"], snap_checksum = ledger["checksum"];
-  EXPECT_EQ(snap["meta"]["transitions"].get<uint64_t>(), snap_transitions);  // no eviction at this size
+  const uint64_t snap_held = snap["meta"]["transitions"];  // the ledger's count less what was evicted
+  EXPECT_GT(snap_held, 0u);
+  EXPECT_LE(snap_held, snap_transitions);
 
   // kill -9 while inserts go on, then restart on the same directory
   uint64_t before_kill = c.Stats(0).inserted_transitions();
@@ -67,7 +70,7 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   ASSERT_TRUE(WaitUntil(
       [&] {
         auto s = c.Stats(0);
-        return s.restored_transitions() == snap_transitions && s.inserted_transitions() > snap_transitions + 5000;
+        return s.restored_transitions() == snap_held && s.inserted_transitions() > snap_transitions + 5000;
       },
       30s))
       << "the actor did not resume publishing: restored " << c.Stats(0).restored_transitions() << " inserted "
@@ -83,7 +86,7 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   auto actor = ReadJson(c.dir / "actor-0.json");
   ASSERT_FALSE(shard.is_null());
   ASSERT_FALSE(actor.is_null());
-  EXPECT_EQ(shard["restored_transitions"], snap_transitions);
+  EXPECT_EQ(shard["restored_transitions"], snap_held);
   const auto& a = shard["actors"][0];
   // every stored byte hashes to the ledger: the snapshot's part (snap_checksum) plus what came
   // after (when the actor was fast enough to fill the shard, eviction makes this moot)
@@ -122,16 +125,19 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   EXPECT_EQ(last["restored_transitions"], final_transitions);
   EXPECT_EQ(last["actors"][0]["stored_checksum"], final_checksum);
 
-  // the snapshot taken on command holds every transition up to it: a shard started on it alone
-  // recomputes the per-actor checksum of its stored bytes and finds the snapshot's ledger
+  // the snapshot taken on command holds every transition up to it (less what was evicted): a
+  // shard started on it alone recomputes the per-actor checksum of its stored bytes and, without
+  // eviction, finds the snapshot's ledger
   for (const auto& f : Snapshots(snaps))
     if (f != files.back()) fs::remove(f);
   auto again = restart_alone();
   ASSERT_FALSE(again.is_null());
-  EXPECT_EQ(again["restored_transitions"], snap_transitions);
-  EXPECT_EQ(again["actors"][0]["stored_transitions"], snap_transitions);
-  EXPECT_EQ(again["actors"][0]["stored_checksum"], snap_checksum);
+  EXPECT_EQ(again["restored_transitions"], snap_held);
+  EXPECT_EQ(again["actors"][0]["stored_transitions"], snap_held);
   EXPECT_EQ(again["actors"][0]["payload_checksum"], snap_checksum);
+  if (snap_held == snap_transitions) {
+    EXPECT_EQ(again["actors"][0]["stored_checksum"], snap_checksum);
+  }
 }
 
 TEST(ReplayResume, TruncatedAndBitFlippedSnapshotsAreReportedAndThePreviousOneUsed) {

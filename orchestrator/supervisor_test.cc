@@ -23,6 +23,13 @@ fs::path LogDir(const std::string& name) {
   return d;
 }
 
+std::string ReadLog(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 ChildSpec Shell(const std::string& name, const std::string& script, bool actor = false) {
   return ChildSpec{name, {"/bin/sh", "-c", script, "sh"}, {}, actor};
 }
@@ -61,10 +68,7 @@ TEST(Supervisor, ACrashedChildIsRestartedUntilItsRetriesAreSpent) {
   EXPECT_EQ(sup.RestartSummary(), "learner 2");
   EXPECT_TRUE(sup.failed());
   // the restarted processes wrote into the same log: three starts
-  std::ifstream in(logs / "learner.log");
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "started\nstarted\nstarted\n");
+  EXPECT_EQ(ReadLog(logs / "learner.log"), "started\nstarted\nstarted\n");
 }
 
 TEST(Supervisor, FirstStartArgumentsAreLeftOutOfARestart) {
@@ -74,10 +78,7 @@ TEST(Supervisor, FirstStartArgumentsAreLeftOutOfARestart) {
   spec.first_start = {"--resume-epoch", "4"};
   ASSERT_TRUE(sup.Start(spec).ok());
   PollUntil(sup, false, [](const auto& e) { return Count(e, Kind::kFailed) > 0; });
-  std::ifstream in(logs / "replay-0.log");
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "args: --resume-epoch 4\nargs: \n");
+  EXPECT_EQ(ReadLog(logs / "replay-0.log"), "args: --resume-epoch 4\nargs: \n");
 }
 
 TEST(Supervisor, RestartArgumentsAreAskedForAtEachRestart) {
@@ -89,10 +90,7 @@ TEST(Supervisor, RestartArgumentsAreAskedForAtEachRestart) {
   spec.restart_args = [&asked] { return std::vector<std::string>{"--first-step", std::to_string(100 * ++asked)}; };
   ASSERT_TRUE(sup.Start(spec).ok());
   PollUntil(sup, false, [](const auto& e) { return Count(e, Kind::kFailed) > 0; });
-  std::ifstream in(logs / "actor-0.log");
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "args: --first-step 10\nargs: --first-step 100\nargs: --first-step 200\n");
+  EXPECT_EQ(ReadLog(logs / "actor-0.log"), "args: --first-step 10\nargs: --first-step 100\nargs: --first-step 200\n");
   EXPECT_EQ(asked, 2);
 }
 

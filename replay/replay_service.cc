@@ -19,14 +19,15 @@ Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, Re
   // newest valid snapshot first; a corrupt one is reported and the previous one tried
   if (!options.snapshot_dir.empty()) {
     for (const auto& path : ListSnapshots(options.snapshot_dir, shard_id)) {
+      // a snapshot of another command is passed over on its META alone, without reading its data
+      auto command = ReadSnapshotCommand(path);
+      if (command.ok() && resume_command != 0 && *command != resume_command) {
+        report->other_command.push_back(fmt::format("{} (command {})", path.string(), *command));
+        continue;
+      }
       auto img = ReadSnapshot(path);
       if (!img.ok()) {
         report->corrupt.push_back(img.status().message());
-        continue;
-      }
-      const uint64_t command = img->meta.value("command_id", uint64_t(0));
-      if (resume_command != 0 && command != resume_command) {
-        report->other_command.push_back(fmt::format("{} (command {})", path.string(), command));
         continue;
       }
       image = std::move(*img);
@@ -160,6 +161,7 @@ Result<SnapshotWriteResult> ReplayService::Snapshot(uint64_t command_id) {
   std::filesystem::create_directories(options_.snapshot_dir, ec);
   auto path = NextSnapshotPath(options_.snapshot_dir, shard_.id());
   auto r = WriteSnapshot(mu_, shard_, limiter_, options_, command_id, path);
+  if (r.ok()) PruneSnapshots(options_.snapshot_dir, shard_.id(), options_.snapshot_keep);  // files only: not under mu_
   std::lock_guard lock(mu_);
   if (!r.ok()) {
     counters_.snapshot_failures++;
@@ -168,7 +170,6 @@ Result<SnapshotWriteResult> ReplayService::Snapshot(uint64_t command_id) {
   counters_.snapshots_written++;
   counters_.last_snapshot_command = std::max(counters_.last_snapshot_command, command_id);
   counters_.last_snapshot_s = r->seconds;
-  PruneSnapshots(options_.snapshot_dir, shard_.id(), options_.snapshot_keep);
   return r;
 }
 

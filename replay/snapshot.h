@@ -89,7 +89,12 @@ Status RestoreShard(const SnapshotImage& image, Shard* shard, RateLimiter* limit
 // snapshot files of a shard in dir, newest first; the next file name to write
 std::vector<std::filesystem::path> ListSnapshots(const std::filesystem::path& dir, uint32_t shard_id);
 std::filesystem::path NextSnapshotPath(const std::filesystem::path& dir, uint32_t shard_id);
-// deletes all but the newest `keep` snapshots of the shard
-void PruneSnapshots(const std::filesystem::path& dir, uint32_t shard_id, int64_t keep);
+// the command a snapshot was written for (META's command_id; 0: periodic or final), reading
+// only the section headers and META
+Result<uint64_t> ReadSnapshotCommand(const std::filesystem::path& path);
+// deletes the shard's snapshots beyond the newest `keep`, except those of the newest `keep`
+// checkpoint epochs (IsCheckpointCommand): final and periodic snapshots never push out the epoch
+// a resume needs. Returns the files deleted.
+std::vector<std::filesystem::path> PruneSnapshots(const std::filesystem::path& dir, uint32_t shard_id, int64_t keep);
 
 }  // namespace coins

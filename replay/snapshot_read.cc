@@ -5,6 +5,7 @@
 #include <fstream>
 #include <set>
 
+#include "common/checkpoint.h"
 #include "replay/snapshot.h"
 
 namespace coins {
@@ -24,6 +25,25 @@ Status ReadHeader(std::ifstream& in, const std::string& name, SnapshotImage& img
     return Errorf("snapshot {}: format version {} (this build reads {})", name, version[0], kSnapshotFormat);
   if (version[1] != 0) return Errorf("snapshot {}: header is corrupt (reserved field set)", name);
   img.format = version[0];
+  return Status::Ok();
+}
+
+// the header of section number `index`: a known tag, the reserved field 0, a payload length
+// the file can hold
+Status ReadSectionHeader(std::ifstream& in, const std::string& name, size_t index, uint64_t file_size, std::string* tag,
+                         uint64_t* length, uint64_t* hash) {
+  uint8_t h[24];
+  if (!in.read(reinterpret_cast<char*>(h), 24))
+    return Errorf("snapshot {}: truncated (no END section after {} sections)", name, index);
+  tag->assign(reinterpret_cast<char*>(h), 4);
+  uint32_t reserved;
+  std::memcpy(&reserved, h + 4, 4);
+  std::memcpy(length, h + 8, 8);
+  std::memcpy(hash, h + 16, 8);
+  static const std::set<std::string> kTags = {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META", "END!"};
+  if (reserved != 0 || !kTags.count(*tag)) return Errorf("snapshot {}: section header {} is corrupt", name, index);
+  if (*length > file_size)
+    return Errorf("snapshot {}: truncated in section '{}' ({} bytes announced)", name, *tag, *length);
   return Status::Ok();
 }
 
@@ -53,20 +73,9 @@ Status ReadSections(std::ifstream& in, const std::string& name, uint64_t file_si
                     uint64_t* data_hash) {
   std::vector<uint8_t> buf;
   for (bool ended = false; !ended;) {
-    uint8_t h[24];
-    if (!in.read(reinterpret_cast<char*>(h), 24))
-      return Errorf("snapshot {}: truncated (no END section after {} sections)", name, img.sections.size());
-    std::string tag(reinterpret_cast<char*>(h), 4);
+    std::string tag;
     uint64_t length, hash;
-    std::memcpy(&length, h + 8, 8);
-    std::memcpy(&hash, h + 16, 8);
-    uint32_t reserved;
-    std::memcpy(&reserved, h + 4, 4);
-    static const std::set<std::string> kTags = {"DATA", "CHKD", "PRIO", "LEDG", "CONF", "META", "END!"};
-    if (reserved != 0 || !kTags.count(tag))
-      return Errorf("snapshot {}: section header {} is corrupt", name, img.sections.size());
-    if (length > file_size)
-      return Errorf("snapshot {}: truncated in section '{}' ({} bytes announced)", name, tag, length);
+    COINS_RETURN_IF_ERROR(ReadSectionHeader(in, name, img.sections.size(), file_size, &tag, &length, &hash));
     buf.resize(size_t(length));
     if (!in.read(reinterpret_cast<char*>(buf.data()), std::streamsize(length)))
       return Errorf("snapshot {}: truncated in section '{}'", name, tag);
@@ -116,14 +125,22 @@ Status CheckImage(const std::string& name, uint64_t data_hash, SnapshotImage& im
   return Status::Ok();
 }
 
-Status Read(const fs::path& path, SnapshotImage& img) {
-  std::ifstream in(path, std::ios::binary);
+// opens a snapshot and checks its header; *file_size for the section reader
+Status Open(const fs::path& path, std::ifstream& in, SnapshotImage& img, uint64_t* file_size) {
+  in.open(path, std::ios::binary);
   if (!in) return Errorf("snapshot {}: cannot open", path.string());
-  const std::string name = path.string();
-  COINS_RETURN_IF_ERROR(ReadHeader(in, name, img));
+  COINS_RETURN_IF_ERROR(ReadHeader(in, path.string(), img));
   in.seekg(0, std::ios::end);
-  const uint64_t file_size = uint64_t(in.tellg());
+  *file_size = uint64_t(in.tellg());
   in.seekg(16);
+  return Status::Ok();
+}
+
+Status Read(const fs::path& path, SnapshotImage& img) {
+  std::ifstream in;
+  uint64_t file_size = 0;
+  COINS_RETURN_IF_ERROR(Open(path, in, img, &file_size));
+  const std::string name = path.string();
   uint64_t data_hash = 0;
   COINS_RETURN_IF_ERROR(ReadSections(in, name, file_size, img, &data_hash));
   return CheckImage(name, data_hash, img);
@@ -139,6 +156,34 @@ Result<SnapshotImage> ReadSnapshot(const fs::path& path) {
 }
 
 Status InspectSnapshot(const fs::path& path, SnapshotImage* img) { return Read(path, *img); }
+
+Result<uint64_t> ReadSnapshotCommand(const fs::path& path) {
+  std::ifstream in;
+  SnapshotImage img;
+  uint64_t file_size = 0;
+  COINS_RETURN_IF_ERROR(Open(path, in, img, &file_size));
+  const std::string name = path.string();
+  std::vector<uint8_t> buf;
+  for (size_t index = 0;; ++index) {
+    std::string tag;
+    uint64_t length, hash;
+    COINS_RETURN_IF_ERROR(ReadSectionHeader(in, name, index, file_size, &tag, &length, &hash));
+    if (tag == "END!") return Errorf("snapshot {}: section 'META' is missing", name);
+    if (tag != "META") {
+      if (!in.seekg(std::streamoff(length), std::ios::cur))
+        return Errorf("snapshot {}: truncated in section '{}'", name, tag);
+      continue;
+    }
+    buf.resize(size_t(length));
+    if (!in.read(reinterpret_cast<char*>(buf.data()), std::streamsize(length)))
+      return Errorf("snapshot {}: truncated in section 'META'", name);
+    if (HashBytes(buf.data(), buf.size()) != hash)
+      return Errorf("snapshot {}: section 'META' fails its checksum", name);
+    bool ended = false;
+    COINS_RETURN_IF_ERROR(TakeSection(name, tag, buf, img, &ended));
+    return img.meta.value("command_id", uint64_t(0));
+  }
+}
 
 Status RestoreShard(const SnapshotImage& img, Shard* shard, RateLimiter* limiter) {
   const auto& m = img.meta;
@@ -232,10 +277,21 @@ fs::path NextSnapshotPath(const fs::path& dir, uint32_t shard_id) {
   return dir / fmt::format("shard-{}-{:08d}.snap", shard_id, next);
 }
 
-void PruneSnapshots(const fs::path& dir, uint32_t shard_id, int64_t keep) {
+std::vector<fs::path> PruneSnapshots(const fs::path& dir, uint32_t shard_id, int64_t keep) {
   auto list = ListSnapshots(dir, shard_id);
-  std::error_code ec;
-  for (size_t i = size_t(keep); i < list.size(); ++i) fs::remove(list[i], ec);
+  std::vector<fs::path> removed;
+  int64_t epochs = 0;
+  for (size_t i = 0; i < list.size(); ++i) {
+    // a snapshot whose META cannot be read counts as no epoch's: it never holds back pruning
+    auto command = ReadSnapshotCommand(list[i]);
+    const bool epoch = command.ok() && IsCheckpointCommand(*command);
+    const bool kept = int64_t(i) < keep || (epoch && epochs < keep);
+    epochs += epoch;
+    if (kept) continue;
+    std::error_code ec;
+    if (fs::remove(list[i], ec)) removed.push_back(list[i]);
+  }
+  return removed;
 }
 
 }  // namespace coins

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <thread>
 
+#include "common/checkpoint.h"
 #include "common/machine.h"
 #include "replay/replay_service.h"
 #include "replay/test_stream.h"
@@ -189,6 +190,49 @@ TEST(Snapshot, StrayFilesWithHugeNumbersAreSkippedAndTheValidOneUsed) {
   EXPECT_EQ(r.snapshot, w->path);
   EXPECT_EQ(r.corrupt.size(), 1u);  // the one that fits was tried and reported
   EXPECT_EQ(r.transitions, w->transitions);
+  fs::remove_all(dir);
+}
+
+TEST(Snapshot, FinalSnapshotsNeverPushOutTheEpochsAResumeNeeds) {
+  auto dir = TempDir("prune");
+  ResumeReport report;
+  auto o = Options(dir);
+  o.snapshot_keep = 2;
+  auto a = Open(o, &report);
+  TestStream stream(3, 7);
+  Fill(*a, stream, 4);
+  // epochs 1..3, then four stop/resume cycles that each write a final snapshot (command 0)
+  std::vector<std::string> paths;
+  std::vector<uint64_t> commands = {CheckpointCommandId(1), CheckpointCommandId(2), CheckpointCommandId(3), 0, 0, 0, 0};
+  for (uint64_t command : commands) {
+    Fill(*a, stream, 1);
+    auto w = a->Snapshot(command);
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    paths.push_back(w->path);
+    auto c = ReadSnapshotCommand(w->path);
+    ASSERT_TRUE(c.ok()) << c.status().message();
+    EXPECT_EQ(*c, command);
+  }
+  // kept: the newest two, and the snapshots of the newest two epochs; epoch 1 and two finals went
+  std::vector<fs::path> want = {paths[6], paths[5], paths[2], paths[1]};
+  EXPECT_EQ(ListSnapshots(dir, 0), want);
+  // a resume of epoch 2 finds its snapshot, passing the newer ones over on their META
+  ResumeReport r;
+  auto b = ReplayService::Open(0, o, &r, CheckpointCommandId(2));
+  ASSERT_TRUE(b.ok()) << b.status().message();
+  EXPECT_EQ(r.snapshot, paths[1]);
+  EXPECT_EQ(r.other_command.size(), 3u);
+  EXPECT_TRUE(r.corrupt.empty());
+  // a corrupt META is an error naming the file and the section; a corrupt DATA is not seen by
+  // the META reader but fails the full read
+  FlipBits(paths[6], fs::file_size(paths[6]) - 30, 0x10);
+  auto bad = ReadSnapshotCommand(paths[6]);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find(paths[6]), std::string::npos) << bad.status().message();
+  FlipBits(paths[5], 16 + 24 + 3, 0x01);
+  auto data_bad = ReadSnapshotCommand(paths[5]);
+  ASSERT_TRUE(data_bad.ok()) << data_bad.status().message();
+  EXPECT_FALSE(ReadSnapshot(paths[5]).ok());
   fs::remove_all(dir);
 }
 

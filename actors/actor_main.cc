@@ -229,9 +229,10 @@ int ActorMain(int argc, char** argv) {
     chain = std::make_unique<ChainFollower>(*dds->node, (*actor)->spec(), id, run.actors);
     if (!chain->status().ok()) return ExitWithError(chain->status().WithContext("cannot open DDS topics"), 1);
   }
-  spdlog::info("env {} (state {} floats), {} envs, publishing to shard {}, steps {}{}", run.env,
+  spdlog::info("env {} (state {} floats), {} envs, publishing to shard {}, steps {}{}{}", run.env,
                (*actor)->spec().state_dim(), options.envs, shard, steps ? std::to_string(steps) : "unbounded",
-               chain ? ", following the chain" : ", random actions");
+               chain ? ", following the chain" : ", random actions",
+               first_step ? fmt::format(", counting env steps on from {}", first_step) : "");
   dds::Heartbeat& heartbeat = dds->heartbeat;
   heartbeat.Publish("running");
 

@@ -265,6 +265,18 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   EXPECT_TRUE(WaitUntil([&] { return ReadText(dir / "resume.log").find("actor-0 restarted") != std::string::npos; },
                         std::chrono::seconds(30)))
       << ReadText(dir / "resume.log");
+  // the restart appends to the actor's log; stop only once it is running (a slow start, under a
+  // sanitizer, would otherwise be cut before it handles signals and leave no final report)
+  const auto counting = [&] {
+    const std::string log = ReadText(run / "logs" / "actor-0.log");
+    size_t n = 0;
+    for (size_t at = log.find("counting env steps on from"); at != std::string::npos;
+         at = log.find("counting env steps on from", at + 1))
+      ++n;
+    return n;
+  };
+  EXPECT_TRUE(WaitUntil([&] { return counting() >= 2; }, std::chrono::seconds(30)))
+      << ReadText(run / "logs" / "actor-0.log");
   coins[0].Signal(SIGTERM);
   ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
   const std::string out = ReadText(dir / "resume.log");

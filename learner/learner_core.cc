@@ -124,7 +124,11 @@ Status LearnerCore::OnCommand(const msg::ChainCommand& cmd, Outputs* out) {
   if (has_command_ && cmd.seq() == command_.seq()) return Status::Ok();
   COINS_RETURN_IF_ERROR(BuildLevels(cmd).WithContext("command " + std::to_string(cmd.seq())));
   const bool same_job_restored = !has_command_ && cmd.seq() == command_.seq() && train_level_ > 0;
-  if (const int ended = EndedSkill(cmd); ended > 0) StartSelection(ended, Candidates(ended));
+  if (const int ended = EndedSkill(cmd); ended > 0) {
+    StartSelection(ended, Candidates(ended));
+    spdlog::info("{} training ended: choosing its weights among {} candidates, {} goals each",
+                 trainer(ended)->spec().name, selection_->candidates().size(), options_.select_goals);
+  }
   command_ = cmd;
   has_command_ = true;
   status_.command_seq(cmd.seq());

@@ -43,8 +43,6 @@ void LearnerCore::StartSelection(int level, std::vector<SkillSnapshot> candidate
   o.seed = seed_ + kSelectSeedOffset;
   o.by_interaction = trainer(level)->spec().require_interaction;
   selection_.emplace(level, std::move(candidates), o);
-  spdlog::info("{} training ended: choosing its weights among {} candidates, {} goals each",
-               trainer(level)->spec().name, selection_->candidates().size(), o.goals);
 }
 
 Result<EvalResult> LearnerCore::EvaluateCandidate(int level, const std::vector<uint8_t>& acting, int64_t goals,
@@ -127,6 +125,11 @@ Status LearnerCore::LoadSelection(const std::string& dir, const json& state) {
     list.push_back({sj.at("env_steps").get<uint64_t>(), std::move(*blob)});
   }
   if (j.at("selecting").get<bool>()) {
+    // loading alone runs nothing (`coins eval` loads checkpoints too): the learner's Work does
+    spdlog::info(
+        "the checkpoint was cut while {}'s weights were chosen among {} candidates: the choice starts over "
+        "when training goes on",
+        t->spec().name, list.size());
     StartSelection(level, std::move(list));
     return Status::Ok();
   }

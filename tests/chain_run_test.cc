@@ -258,9 +258,16 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   ASSERT_EQ(inspect.code, 0) << snapshot << "\n" << inspect.output;
   EXPECT_EQ(nlohmann::json::parse(inspect.output)["meta"]["command_id"], CheckpointCommandId(epoch));
   // an actor killed inside the run is restarted counting on from the steps it had reported
-  const std::string last_row = Lines(ReadText(run / "metrics.csv")).back();
-  const size_t column = last_row.find(',') + 1;
-  const uint64_t before_kill = std::stoull(last_row.substr(column, last_row.find(',', column) - column));
+  const auto run_steps = [&]() -> uint64_t {  // env steps of metrics.csv's newest row (0: a row cut mid-write)
+    const std::string last_row = Lines(ReadText(run / "metrics.csv")).back();
+    const size_t column = last_row.find(',') + 1;
+    try {
+      return std::stoull(last_row.substr(column, last_row.find(',', column) - column));
+    } catch (const std::exception&) {
+      return 0;
+    }
+  };
+  const uint64_t before_kill = run_steps();
   RunCommand("pkill -9 -f '[c]oins-actor.*" + run.string() + "/'");
   EXPECT_TRUE(WaitUntil([&] { return ReadText(dir / "resume.log").find("actor-0 restarted") != std::string::npos; },
                         std::chrono::seconds(30)))
@@ -277,6 +284,8 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
   };
   EXPECT_TRUE(WaitUntil([&] { return counting() >= 2; }, std::chrono::seconds(30)))
       << ReadText(run / "logs" / "actor-0.log");
+  EXPECT_TRUE(WaitUntil([&] { return run_steps() > std::max(before_kill, epoch_steps); }, std::chrono::seconds(30)))
+      << "the restarted actor took no steps: " << run_steps();
   coins[0].Signal(SIGTERM);
   ASSERT_TRUE(coins[0].WaitFor(std::chrono::seconds(40)));
   const std::string out = ReadText(dir / "resume.log");

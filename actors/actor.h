@@ -79,6 +79,8 @@ class Actor {
   static uint64_t EnvSeed(uint64_t seed, uint32_t actor_id, uint64_t env_index);
 
   const ActorCounters& counters() const { return counters_; }
+  // random per process start; stamped on every batch and status report
+  uint64_t incarnation() const { return incarnation_; }
   const envs::EnvSpec& spec() const;
   uint32_t layout_hash() const { return layout_; }
   int action_dim() const { return action_dim_; }

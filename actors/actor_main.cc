@@ -138,10 +138,12 @@ Result<std::unique_ptr<DdsBatchSink>> OpenSink(const DdsOptions& dds, const std:
 class StatsReporter {
  public:
   StatsReporter(int64_t id, const std::string& env, int64_t shard, const DdsBatchSink& sink, const ChainFollower* chain,
-                uint64_t first_step)
+                uint64_t incarnation, uint64_t first_step)
       : sink_(sink), chain_(chain), last_steps_(first_step) {
     stats_.schema_version(msg::STATUS_SCHEMA);
     stats_.actor_id(static_cast<uint32_t>(id));
+    stats_.incarnation(incarnation);
+    stats_.first_step(first_step);
     stats_.env(env);
     stats_.shard(static_cast<uint32_t>(shard));
   }
@@ -238,7 +240,7 @@ int ActorMain(int argc, char** argv) {
 
   // status: ActorStats with the step rate over the last period
   (*actor)->CountStepsFrom(first_step);
-  StatsReporter stats(id, run.env, shard, **sink, chain.get(), first_step);
+  StatsReporter stats(id, run.env, shard, **sink, chain.get(), (*actor)->incarnation(), first_step);
   Actor::Hooks hooks;
   hooks.stop = [] { return StopRequested(); };
   hooks.period = std::chrono::milliseconds(static_cast<int64_t>(options.status_period_s * 1000));

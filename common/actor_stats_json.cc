@@ -9,6 +9,8 @@ nlohmann::json ActorStatsJson(const msg::ActorStats& s) {
           {"env", s.env()},
           {"shard", s.shard()},
           {"steps", s.steps()},
+          {"incarnation", s.incarnation()},
+          {"first_step", s.first_step()},
           {"episodes", s.episodes()},
           {"batches", s.batches()},
           {"transitions_published", s.transitions_published()},
@@ -38,6 +40,8 @@ Result<msg::ActorStats> ReadActorStatsFile(const std::string& path) {
     s.env(j.at("env").get<std::string>());
     s.shard(j.at("shard").get<uint32_t>());
     s.steps(j.at("steps").get<uint64_t>());
+    s.incarnation(j.at("incarnation").get<uint64_t>());
+    s.first_step(j.at("first_step").get<uint64_t>());
     s.episodes(j.at("episodes").get<uint64_t>());
     s.batches(j.at("batches").get<uint64_t>());
     s.transitions_published(j.at("transitions_published").get<uint64_t>());

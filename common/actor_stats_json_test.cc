@@ -16,6 +16,8 @@ TEST(ActorStatsJson, AFinalStatsFileReadsBackEveryCounterItCarries) {
   s.env("breakout");
   s.shard(1);
   s.steps(30000);
+  s.incarnation(0x0123456789abcdefull);
+  s.first_step(12000);
   s.episodes(675);
   s.batches(30);
   s.transitions_published(30001);
@@ -35,6 +37,8 @@ TEST(ActorStatsJson, AFinalStatsFileReadsBackEveryCounterItCarries) {
   ASSERT_TRUE(r.ok()) << r.status().message();
   EXPECT_EQ(ActorStatsJson(*r), ActorStatsJson(s));
   EXPECT_EQ(r->payload_checksum(), 0xfedcba9876543210ull);
+  EXPECT_EQ(r->incarnation(), 0x0123456789abcdefull);
+  EXPECT_EQ(r->first_step(), 12000u);
 
   // a cut file and a file of something else: errors that name the file
   std::ofstream(file) << ActorStatsJson(s).dump().substr(0, 40);

@@ -1,9 +1,15 @@
 // EnvStepCount: the env steps of a run from the actors' cumulative ActorStats.steps reports.
-// A restarted actor counts from 0 again: what its earlier incarnation reported is kept as a
-// base, so the total never moves back. Replay counts are no substitute: shards store a
-// transition per level stream, several per env step once skills act.
+// Each actor process (incarnation) counts from its first step: 0 for a fresh actor, or the count
+// `coins run` gave it on a resume or a restart. When a new incarnation starts below the count the
+// earlier one reached (it restarted from 0, or from a count read before the last report arrived),
+// the steps between its first step and that count are kept as a base, so the total never moves
+// back and nothing is counted twice. Reports of an incarnation that was replaced are ignored.
+// Replay counts are no substitute: shards store a transition per level stream, several per env
+// step once skills act.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <map>
 
@@ -11,10 +17,15 @@ namespace coins {
 
 class EnvStepCount {
  public:
-  // the newest cumulative count of one actor
-  void Report(uint32_t actor_id, uint64_t steps) {
+  // the newest cumulative count of one actor process
+  void Report(uint32_t actor_id, uint64_t steps, uint64_t incarnation = 0, uint64_t first_step = 0) {
     Actor& a = actors_[actor_id];
-    if (steps < a.last) a.base += a.last;
+    if (incarnation != 0 && std::find(a.retired.begin(), a.retired.end(), incarnation) != a.retired.end()) return;
+    const bool replaced = a.seen && incarnation != a.incarnation;
+    if (replaced || steps < a.last) a.base += a.last - std::min(first_step, a.last);
+    if (replaced) a.retired[a.next_retired++ % a.retired.size()] = a.incarnation;
+    a.seen = true;
+    a.incarnation = incarnation;
     a.last = steps;
   }
   uint64_t total() const {
@@ -31,7 +42,10 @@ class EnvStepCount {
 
  private:
   struct Actor {
-    uint64_t base = 0, last = 0;
+    uint64_t base = 0, last = 0, incarnation = 0;
+    bool seen = false;
+    std::array<uint64_t, 4> retired{};  // the newest replaced incarnations (0: none)
+    size_t next_retired = 0;
   };
   std::map<uint32_t, Actor> actors_;
 };

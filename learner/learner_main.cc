@@ -63,7 +63,9 @@ Result<Topics> OpenTopics(dds::Node& node) {
 class EnvSteps {
  public:
   void Take(dds::Reader<msg::ActorStats>& reader) {
-    reader.TakeAll(scratch_, [&](const msg::ActorStats& s, const auto&) { count_.Report(s.actor_id(), s.steps()); });
+    reader.TakeAll(scratch_, [&](const msg::ActorStats& s, const auto&) {
+      count_.Report(s.actor_id(), s.steps(), s.incarnation(), s.first_step());
+    });
   }
   uint64_t total() const { return count_.total(); }
 

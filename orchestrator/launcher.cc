@@ -112,7 +112,8 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     actor.argv.insert(actor.argv.end(), {"--stats-out", stats});
     // a resumed run's actors count on from the epoch's env steps, split as the pacing splits them;
     // a restarted actor from the count it reported last (the pacing allows run steps: counting
-    // from 0 again it would run ahead of the learner)
+    // from 0 again it would run ahead of the learner). A report still in flight when the count is
+    // read is neither lost nor counted twice: EnvStepCount uses the restart's first step.
     const uint64_t n = plan.resume_env_steps, actors = uint64_t(std::max<int64_t>(c.run.actors, 1));
     const uint64_t share = n / actors + (uint64_t(i) < n % actors ? 1 : 0);
     if (share > 0) actor.first_start = {"--first-step", std::to_string(share)};

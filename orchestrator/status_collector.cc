@@ -80,7 +80,7 @@ std::vector<msg::InteractionScores> StatusCollector::TakeScores() {
 
 void StatusCollector::Apply(const msg::ActorStats& s, StatusView::Clock::time_point now) {
   view_.actors[s.actor_id()] = {s, now};
-  view_.env_steps.Report(s.actor_id(), s.steps());
+  view_.env_steps.Report(s.actor_id(), s.steps(), s.incarnation(), s.first_step());
 }
 
 void StatusCollector::Report(const msg::ActorStats& s) {

@@ -40,8 +40,9 @@ Result<msg::ActorStats> ReadActorStatsFile(const std::string& path) {
     s.env(j.at("env").get<std::string>());
     s.shard(j.at("shard").get<uint32_t>());
     s.steps(j.at("steps").get<uint64_t>());
-    s.incarnation(j.at("incarnation").get<uint64_t>());
-    s.first_step(j.at("first_step").get<uint64_t>());
+    // absent from files of STATUS_SCHEMA 3 actors: 0, read as "counted from 0, no incarnation"
+    s.incarnation(j.value("incarnation", uint64_t(0)));
+    s.first_step(j.value("first_step", uint64_t(0)));
     s.episodes(j.at("episodes").get<uint64_t>());
     s.batches(j.at("batches").get<uint64_t>());
     s.transitions_published(j.at("transitions_published").get<uint64_t>());

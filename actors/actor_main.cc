@@ -28,8 +28,11 @@ namespace {
 // to the Actor between steps (its poll hook) and read by its pacing hook
 class ChainFollower {
  public:
-  ChainFollower(dds::Node& node, const envs::EnvSpec& env, int64_t actor_id, int64_t actors)
-      : store_(env), actor_id_(uint64_t(actor_id)), actors_(uint64_t(actors)) {
+  // steps_from_chain: no step before the first ChainStatus, whose env steps (the run's, from
+  // the orchestrator's chain state) give this actor's share to count on from when it is more
+  // than the actor's count (a resumed run on a host without the orchestrator)
+  ChainFollower(dds::Node& node, const envs::EnvSpec& env, int64_t actor_id, int64_t actors, bool steps_from_chain)
+      : store_(env), actor_id_(uint64_t(actor_id)), actors_(uint64_t(actors)), await_chain_steps_(steps_from_chain) {
     auto c = node.MakeReader<msg::ChainCommandPubSubType>(dds::kChainCommandTopic, dds::LatchedReaderQos());
     auto w = node.MakeReader<msg::PolicyWeightsPubSubType>(dds::kWeightsTopic, dds::LatchedReaderQos());
     auto l = node.MakeReader<msg::LearnerStatusPubSubType>(dds::kLearnerStatusTopic, dds::StatusReaderQos());
@@ -37,6 +40,11 @@ class ChainFollower {
     if (c.ok()) commands_ = *c;
     if (w.ok()) weights_ = *w;
     if (l.ok()) learner_ = *l;
+    if (steps_from_chain && status_.ok()) {
+      auto s = node.MakeReader<msg::ChainStatusPubSubType>(dds::kChainStatusTopic, dds::LatchedReaderQos());
+      if (s.ok()) chain_status_ = *s;
+      status_ = s.status();
+    }
   }
   const Status& status() const { return status_; }
   // the link whose detector the hierarchy counts against the env's labels: the highest acting
@@ -51,6 +59,24 @@ class ChainFollower {
   uint64_t rejected() const { return store_.rejected(); }
   uint64_t command_seq() const { return command_ ? command_->seq() : 0; }
   int acting() const { return command_ ? int(command_->acting_level()) : 0; }
+
+  // the share of the run's env steps this actor counts on from, once the first ChainStatus came
+  // (0 before, or when not asked for); the actor's count is moved up to it before its first step
+  uint64_t TakeChainSteps(Actor& actor) {
+    if (!await_chain_steps_) return 0;
+    uint64_t run_steps = 0;
+    bool seen = false;
+    chain_status_.TakeAll(chain_status_scratch_, [&](const msg::ChainStatus& s, const auto&) {
+      seen = true;
+      run_steps = std::max(run_steps, s.env_steps());
+    });
+    if (!seen) return 0;
+    await_chain_steps_ = false;
+    const uint64_t share = Share(run_steps);
+    if (share <= actor.counters().steps) return 0;
+    actor.CountStepsFrom(share);
+    return share;
+  }
 
   // new commands, weights and learner progress; reconfigures the actor when they change it
   void Poll(Actor& actor) {
@@ -78,13 +104,15 @@ class ChainFollower {
   uint64_t Allowance() const {
     // no steps before the command, nor before the weights its acting level needs: steps taken
     // at a lower level would count against the pacing and train nothing
-    if (!command_ || store_.models().contiguous() < acting()) return 0;
+    if (!command_ || store_.models().contiguous() < acting() || await_chain_steps_) return 0;
     double total = double(command_->step_base()) + command_->steps_per_update() * double(updates_);
     if (command_->step_base() == 0 && command_->steps_per_update() == 0) total = 1e18;
     if (command_->step_limit() > 0) total = std::min(total, double(command_->step_limit()));
-    const uint64_t all = uint64_t(total);
-    return all / actors_ + (actor_id_ < all % actors_ ? 1 : 0);
+    return Share(uint64_t(total));
   }
+  // this actor's part of `all` run steps, as the launcher and the pacing split them
+  uint64_t Share(uint64_t all) const { return all / actors_ + (actor_id_ < all % actors_ ? 1 : 0); }
+
   void Fill(msg::ActorStats* stats, const ActorCounters& c) const {
     stats->command_seq(command_seq());
     stats->acting_level(acting());
@@ -106,7 +134,10 @@ class ChainFollower {
  private:
   WeightsStore store_;
   uint64_t actor_id_, actors_;
+  bool await_chain_steps_;
   Status status_;
+  dds::Reader<msg::ChainStatus> chain_status_;
+  msg::ChainStatus chain_status_scratch_;
   dds::Reader<msg::ChainCommand> commands_;
   dds::Reader<msg::PolicyWeights> weights_;
   dds::Reader<msg::LearnerStatus> learner_;
@@ -146,6 +177,11 @@ class StatsReporter {
     stats_.first_step(first_step);
     stats_.env(env);
     stats_.shard(static_cast<uint32_t>(shard));
+  }
+  // the count moved to `first` before the first step
+  void CountFrom(uint64_t first) {
+    stats_.first_step(first);
+    last_steps_ = first;
   }
   const msg::ActorStats& Fill(const ActorCounters& c) {
     auto now = std::chrono::steady_clock::now();
@@ -210,10 +246,16 @@ int ActorMain(int argc, char** argv) {
   main.app().add_option("--id", id, "actor id (publishes to shard id mod run.shards)")->check(CLI::Range(0, 1 << 20));
   main.app().add_option("--stats-out", stats_out, "write the final ActorStats as JSON to this file");
   uint64_t first_step = 0;
+  bool first_step_from_chain = false;
   main.app().add_option("--first-step", first_step,
                         "count env steps from here (a resumed run: this actor's share of the run's steps)");
+  main.app().add_flag("--first-step-from-chain", first_step_from_chain,
+                      "take no step before the orchestrator's first ChainStatus, and count on from this actor's "
+                      "share of its env steps when that is more (a resumed run on a host without the orchestrator)");
   if (int rc = main.Parse(argc, argv); rc >= 0) return rc;
   if (main.name() == "coins-actor") main.name() = "actor-" + std::to_string(id);
+  if (first_step_from_chain && !options.follow_chain)
+    return ExitWithError(Errorf("--first-step-from-chain needs actor.follow_chain: true"), 2);
 
   int64_t shard = id % run.shards;
   uint64_t steps = options.steps ? options.steps : (run.steps ? (run.steps + run.actors - 1) / run.actors : 0);
@@ -228,7 +270,7 @@ int ActorMain(int argc, char** argv) {
   if (!actor.ok()) return ExitWithError(actor.status(), 2);
   std::unique_ptr<ChainFollower> chain;
   if (options.follow_chain) {
-    chain = std::make_unique<ChainFollower>(*dds->node, (*actor)->spec(), id, run.actors);
+    chain = std::make_unique<ChainFollower>(*dds->node, (*actor)->spec(), id, run.actors, first_step_from_chain);
     if (!chain->status().ok()) return ExitWithError(chain->status().WithContext("cannot open DDS topics"), 1);
   }
   spdlog::info("env {} (state {} floats), {} envs, publishing to shard {}, steps {}{}{}", run.env,
@@ -249,7 +291,13 @@ int ActorMain(int argc, char** argv) {
     heartbeat.Publish("running");
   };
   if (chain) {
-    hooks.poll = [&](Actor& a) { chain->Poll(a); };
+    hooks.poll = [&](Actor& a) {
+      if (const uint64_t share = chain->TakeChainSteps(a); share > 0) {
+        stats.CountFrom(share);
+        spdlog::info("counting env steps on from {}: its share of the run's env steps in the chain status", share);
+      }
+      chain->Poll(a);
+    };
     hooks.allowance = [&] { return chain->Allowance(); };
   }
   (*actor)->Run(steps, hooks);

@@ -116,10 +116,16 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     // read is neither lost nor counted twice: EnvStepCount uses the restart's first step.
     const uint64_t n = plan.resume_env_steps, actors = uint64_t(std::max<int64_t>(c.run.actors, 1));
     const uint64_t share = n / actors + (uint64_t(i) < n % actors ? 1 : 0);
+    // A resumed host without the orchestrator has no chain state: its actors take their share
+    // from the orchestrator's ChainStatus before their first step.
+    const bool from_chain = plan.resuming && !roles.Has("orchestrator") && c.actor.follow_chain;
     if (share > 0) actor.first_start = {"--first-step", std::to_string(share)};
-    actor.restart_args = [&collector, id = uint32_t(i), share] {
-      return std::vector<std::string>{"--first-step",
-                                      std::to_string(std::max(share, collector.Snapshot().env_steps.last(id)))};
+    if (from_chain) actor.first_start.push_back("--first-step-from-chain");
+    actor.restart_args = [&collector, id = uint32_t(i), share, from_chain] {
+      std::vector<std::string> args = {"--first-step",
+                                       std::to_string(std::max(share, collector.Snapshot().env_steps.last(id)))};
+      if (from_chain) args.push_back("--first-step-from-chain");
+      return args;
     };
     COINS_RETURN_IF_ERROR(sup.Start(actor));
   }

@@ -306,5 +306,61 @@ TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoc
     EXPECT_LE(std::stod(rows[i - 1]), std::stod(rows[i])) << "wall_s of row " << i << ": " << rows[i];
 }
 
+// two "hosts" on one machine: the orchestrator's (with the shard and the learner) and one with
+// only the actor. Resumed, the actor host has no chain state of its own: its actor waits for the
+// orchestrator's ChainStatus and counts on from its share of the epoch's env steps.
+TEST(ChainRun, AResumedActorHostCountsOnFromTheChainsEnvSteps) {
+  auto dir = TempDir("chain-resume-roles");
+  const fs::path a = dir / "a", b = dir / "b";
+  const int domain = TestDomain(8);
+  const std::string common =
+      " --steps 0 --actors 1 --shards 1 --quiet --set orchestrator.detect_every_steps=1000000000 --set "
+      "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 --set "
+      "orchestrator.checkpoint_timeout_s=2";
+  const std::string roles_a = " --role replay,learner,orchestrator", roles_b = " --role actors";
+  auto start = [&](const std::string& args, const fs::path& log) {
+    auto c = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run" + args}, log.string());
+    EXPECT_TRUE(c.ok());
+    return std::move(*c);
+  };
+  auto stop = [](ChildProcess& c) {
+    c.Signal(SIGTERM);
+    return c.WaitFor(std::chrono::seconds(40)) && c.succeeded();
+  };
+  {
+    ChildProcess host_a = start(common + roles_a + Flags(a, domain), dir / "a1.log");
+    ChildProcess host_b = start(common + roles_b + Flags(b, domain), dir / "b1.log");
+    ASSERT_TRUE(WaitUntil([&] { return !chain::ChainStore::Epochs(a / "chain").empty(); }, std::chrono::seconds(90)))
+        << ReadText(a / "logs" / "orchestrator.log");
+    EXPECT_TRUE(stop(host_b)) << ReadText(dir / "b1.log");
+    EXPECT_TRUE(stop(host_a)) << ReadText(dir / "a1.log");
+  }
+  const uint64_t epoch = chain::ChainStore::Epochs(a / "chain").back();
+  const uint64_t epoch_steps =
+      nlohmann::json::parse(ReadText(a / "chain" / ("chain-epoch-" + std::to_string(epoch) + ".json")))
+          .at("state")
+          .at("env_steps")
+          .get<uint64_t>();
+  ASSERT_GT(epoch_steps, 0u);
+
+  ChildProcess host_a = start(" --resume " + a.string() + roles_a + " --steps 0", dir / "a2.log");
+  ChildProcess host_b = start(" --resume " + b.string() + roles_b + " --steps 0", dir / "b2.log");
+  const std::string line = "counting env steps on from ";
+  EXPECT_TRUE(WaitUntil([&] { return ReadText(b / "logs" / "actor-0.log").find(line) != std::string::npos; },
+                        std::chrono::seconds(60)))
+      << ReadText(b / "logs" / "actor-0.log");
+  EXPECT_TRUE(stop(host_b)) << ReadText(dir / "b2.log");
+  EXPECT_TRUE(stop(host_a)) << ReadText(dir / "a2.log");
+  // the share of one actor is the whole count of the epoch (or more: the status may be newer);
+  // counting from 0 the unpaced actor could pass the epoch's count too, its first step not
+  const auto actor = nlohmann::json::parse(ReadText(b / "logs" / "actor-0.final.json"));
+  EXPECT_GE(actor.at("first_step").get<uint64_t>(), epoch_steps) << actor.dump();
+  EXPECT_GE(actor.at("steps").get<uint64_t>(), epoch_steps) << actor.dump();
+  const std::string log = ReadText(b / "logs" / "actor-0.log");
+  const size_t at = log.find(line);
+  ASSERT_NE(at, std::string::npos) << log;
+  EXPECT_EQ(std::stoull(log.substr(at + line.size())), actor.at("first_step").get<uint64_t>()) << log;
+}
+
 }  // namespace
 }  // namespace coins

@@ -37,7 +37,7 @@ const std::vector<SecurityRole>& SecurityRoles() {
   static const std::vector<SecurityRole> roles = {
       {"actor",
        {kTransitionTopic, kActorStatsTopic, kHeartbeatTopic},
-       {kChainCommandTopic, kWeightsTopic, kLearnerStatusTopic, kReplayStatsTopic}},
+       {kChainCommandTopic, kChainStatusTopic, kWeightsTopic, kLearnerStatusTopic, kReplayStatsTopic}},
       {"replay",
        {kSampleReplyTopic, kReplayStatsTopic, kHeartbeatTopic},
        {kTransitionTopic, kSampleRequestTopic, kPriorityUpdateTopic, kControlTopic}},

@@ -13,6 +13,7 @@
 #include "common/dds/heartbeat.h"
 #include "common/dds/qos.h"
 #include "common/dds/topics.h"
+#include "common/env_steps.h"
 #include "common/files.h"
 #include "common/process.h"
 #include "common/run_options.h"
@@ -111,7 +112,7 @@ class ChainFollower {
     return Share(uint64_t(total));
   }
   // this actor's part of `all` run steps, as the launcher and the pacing split them
-  uint64_t Share(uint64_t all) const { return all / actors_ + (actor_id_ < all % actors_ ? 1 : 0); }
+  uint64_t Share(uint64_t all) const { return ActorShare(all, actor_id_, actors_); }
 
   void Fill(msg::ActorStats* stats, const ActorCounters& c) const {
     stats->command_seq(command_seq());

@@ -15,6 +15,12 @@
 
 namespace coins {
 
+// actor `actor_id`'s part of `all` run steps split among `actors`: the first all % actors actors
+// take one more. The pacing and a resume's first steps split the run's steps this way.
+inline uint64_t ActorShare(uint64_t all, uint64_t actor_id, uint64_t actors) {
+  return all / actors + (actor_id < all % actors ? 1 : 0);
+}
+
 class EnvStepCount {
  public:
   // the newest cumulative count of one actor process

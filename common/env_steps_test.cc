@@ -43,5 +43,12 @@ TEST(EnvStepCount, RestartsAndResumesCountEveryStepOnce) {
   EXPECT_EQ(count.total(), 250u + 7900u + 50u);
 }
 
+TEST(EnvStepCount, ActorSharesAddUpToTheRunsSteps) {
+  EXPECT_EQ(ActorShare(10, 0, 3), 4u);
+  EXPECT_EQ(ActorShare(10, 1, 3), 3u);
+  EXPECT_EQ(ActorShare(10, 2, 3), 3u);
+  EXPECT_EQ(ActorShare(7, 0, 1), 7u);
+}
+
 }  // namespace
 }  // namespace coins

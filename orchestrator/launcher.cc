@@ -16,6 +16,7 @@
 #include "common/cli_checks.h"
 #include "common/dds/discovery.h"
 #include "common/dds/participant_ids.h"
+#include "common/env_steps.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
 #include "orchestrator/run_report.h"
@@ -114,8 +115,7 @@ Status StartChildren(Supervisor& sup, const SystemConfig& c, const std::string& 
     // a restarted actor from the count it reported last (the pacing allows run steps: counting
     // from 0 again it would run ahead of the learner). A report still in flight when the count is
     // read is neither lost nor counted twice: EnvStepCount uses the restart's first step.
-    const uint64_t n = plan.resume_env_steps, actors = uint64_t(std::max<int64_t>(c.run.actors, 1));
-    const uint64_t share = n / actors + (uint64_t(i) < n % actors ? 1 : 0);
+    const uint64_t share = ActorShare(plan.resume_env_steps, uint64_t(i), uint64_t(std::max<int64_t>(c.run.actors, 1)));
     // A resumed host without the orchestrator has no chain state: its actors take their share
     // from the orchestrator's ChainStatus before their first step.
     const bool from_chain = plan.resuming && !roles.Has("orchestrator") && c.actor.follow_chain;

@@ -20,10 +20,12 @@ Result<std::unique_ptr<ReplayService>> ReplayService::Open(uint32_t shard_id, Re
   if (!options.snapshot_dir.empty()) {
     for (const auto& path : ListSnapshots(options.snapshot_dir, shard_id)) {
       // a snapshot of another command is passed over on its META alone, without reading its data
-      auto command = ReadSnapshotCommand(path);
-      if (command.ok() && resume_command != 0 && *command != resume_command) {
-        report->other_command.push_back(fmt::format("{} (command {})", path.string(), *command));
-        continue;
+      if (resume_command != 0) {
+        auto command = ReadSnapshotCommand(path);
+        if (command.ok() && *command != resume_command) {
+          report->other_command.push_back(fmt::format("{} (command {})", path.string(), *command));
+          continue;
+        }
       }
       auto img = ReadSnapshot(path);
       if (!img.ok()) {

@@ -94,7 +94,7 @@ std::filesystem::path NextSnapshotPath(const std::filesystem::path& dir, uint32_
 Result<uint64_t> ReadSnapshotCommand(const std::filesystem::path& path);
 // deletes the shard's snapshots beyond the newest `keep`, except those of the newest `keep`
 // checkpoint epochs (IsCheckpointCommand): final and periodic snapshots never push out the epoch
-// a resume needs. Returns the files deleted.
-std::vector<std::filesystem::path> PruneSnapshots(const std::filesystem::path& dir, uint32_t shard_id, int64_t keep);
+// a resume needs
+void PruneSnapshots(const std::filesystem::path& dir, uint32_t shard_id, int64_t keep);
 
 }  // namespace coins

@@ -277,9 +277,8 @@ fs::path NextSnapshotPath(const fs::path& dir, uint32_t shard_id) {
   return dir / fmt::format("shard-{}-{:08d}.snap", shard_id, next);
 }
 
-std::vector<fs::path> PruneSnapshots(const fs::path& dir, uint32_t shard_id, int64_t keep) {
+void PruneSnapshots(const fs::path& dir, uint32_t shard_id, int64_t keep) {
   auto list = ListSnapshots(dir, shard_id);
-  std::vector<fs::path> removed;
   int64_t epochs = 0;
   for (size_t i = 0; i < list.size(); ++i) {
     // a snapshot whose META cannot be read counts as no epoch's: it never holds back pruning
@@ -289,9 +288,8 @@ std::vector<fs::path> PruneSnapshots(const fs::path& dir, uint32_t shard_id, int
     epochs += epoch;
     if (kept) continue;
     std::error_code ec;
-    if (fs::remove(list[i], ec)) removed.push_back(list[i]);
+    fs::remove(list[i], ec);
   }
-  return removed;
 }
 
 }  // namespace coins

@@ -35,7 +35,8 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
        "exec " + Bin("coins") + " run --steps 0 --actors 2 --shards 1 --quiet --dir " + run.string() +
            " --set dds.domain=" + std::to_string(domain) +
            " --set replay.capacity_mb=128 --set run.max_restarts=2 --set orchestrator.checkpoint_period_s=3"
-           " --set orchestrator.checkpoint_timeout_s=3 --set orchestrator.skill_max_steps=300000"},
+           " --set orchestrator.checkpoint_timeout_s=" +
+           ScaledSeconds(3) + " --set orchestrator.skill_max_steps=300000"},
       (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   coins.push_back(std::move(*child));
@@ -79,7 +80,7 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
   EXPECT_NE(ChainState(run)["phase"], "training-skill");
 
   coins[0].Signal(SIGTERM);
-  ASSERT_TRUE(coins[0].WaitFor(90s)) << log();
+  ASSERT_TRUE(coins[0].WaitFor(Scaled(90s))) << log();
   EXPECT_EQ(PidOf("coins-actor", run), -1) << "an actor outlived the run";
 
   // coins eval: no task policy yet is one line naming what there is; the paddle skill from the

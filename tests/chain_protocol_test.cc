@@ -172,7 +172,7 @@ TEST(ChainProtocol, DetectAcceptCheckpointAndRestartOverRealProcesses) {
   // late joiner reads it (latched); a fresh participant, because Fast DDS 2.9 may leave the
   // shared-memory port of a reader unusable when a writer is killed while writing to it
   c.procs[1].Signal(SIGKILL);
-  ASSERT_TRUE(c.procs[1].WaitFor(seconds(5)));
+  ASSERT_TRUE(c.procs[1].WaitFor(Scaled(seconds(5))));
   c.procs[1] = c.Start("coins-orchestrator", "orchestrator", {});
   FakeLearner late;
   late.Open(c.domain);

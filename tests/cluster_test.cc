@@ -149,7 +149,7 @@ TEST(Cluster, ThreeHostsStoreEveryTransitionOnceAndSurviveTheLossOfTheActorHost)
   ASSERT_TRUE(WaitUntil([&] { return StoredOf((*collector)->Snapshot(), 0) > before + 5000; }, 60s))
       << ReadText(dir / "host1.log");
   hosts.KillAll(1);
-  ASSERT_TRUE(h1.WaitFor(10s));
+  ASSERT_TRUE(h1.WaitFor(Scaled(10s)));
   std::this_thread::sleep_for(1s);
   const uint64_t at_kill = StoredOf((*collector)->Snapshot(), 0);
   const auto restarted = std::chrono::steady_clock::now();
@@ -202,7 +202,7 @@ class Capture {
   }
   // (frames, frames holding the marker)
   std::pair<int, int> Finish() {
-    EXPECT_TRUE(child_.WaitFor(60s));
+    EXPECT_TRUE(child_.WaitFor(Scaled(60s)));
     int frames = -1, found = -1;
     std::istringstream(ReadText(out_)) >> frames >> found;
     return {frames, found};
@@ -251,7 +251,7 @@ std::pair<int, int> SendMarkedCommands(const Hosts& hosts, const fs::path& dir, 
   }
   auto seen = capture.Finish();
   shard.Signal(SIGTERM);
-  shard.WaitFor(20s);
+  shard.WaitFor(Scaled(20s));
   return seen;
 }
 

@@ -21,6 +21,34 @@
 
 namespace coins::testing {
 
+// how much longer than on a plain Release build the system tests wait (CMake's
+// COINS_TEST_TIME_SCALE, passed to every test as the environment variable of that name; a
+// sanitizer build defaults to 4). Every deadline a test sets on processes it runs goes through
+// Scaled: WaitUntil and RunCommand scale their limits themselves. An unset variable is 1; a value
+// that is not a positive integer stops the test with a message naming it.
+inline int TestTimeScale() {
+  static const int scale = [] {
+    const char* text = std::getenv("COINS_TEST_TIME_SCALE");
+    if (text == nullptr || *text == '\0') return 1;
+    char* end = nullptr;
+    const long value = std::strtol(text, &end, 10);
+    if (*end != '\0' || value < 1 || value > 99) {
+      std::fprintf(stderr, "COINS_TEST_TIME_SCALE=%s: expected a whole number from 1 to 99\n", text);
+      std::abort();
+    }
+    return int(value);
+  }();
+  return scale;
+}
+
+template <typename Rep, typename Period>
+std::chrono::duration<Rep, Period> Scaled(std::chrono::duration<Rep, Period> limit) {
+  return limit * TestTimeScale();
+}
+
+// a whole number of seconds for a config key that bounds a wait (e.g. a checkpoint timeout)
+inline std::string ScaledSeconds(int seconds) { return std::to_string(seconds * TestTimeScale()); }
+
 // where the coins executables are (set by CMake)
 inline std::string Bin(const std::string& name) { return std::string(COINS_BIN_DIR) + "/" + name; }
 
@@ -58,9 +86,10 @@ struct CommandResult {
   int code;
   std::string output;
 };
-// runs `command` through sh, output and errors together; after `limit` it is sent SIGTERM (and
-// SIGKILL 10 s later) and the code is timeout's 124 (137 when killed)
+// runs `command` through sh, output and errors together; after Scaled(limit) it is sent SIGTERM
+// (and SIGKILL 10 s later) and the code is timeout's 124 (137 when killed)
 inline CommandResult RunCommand(const std::string& command, std::chrono::seconds limit = std::chrono::seconds(240)) {
+  limit = Scaled(limit);
   std::string quoted;
   for (char c : command) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   const std::string bounded = "timeout -k 10 " + std::to_string(limit.count()) + " sh -c '" + quoted + "'";
@@ -73,10 +102,10 @@ inline CommandResult RunCommand(const std::string& command, std::chrono::seconds
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
-// waits until pred() is true or the timeout passes; returns pred()
+// waits until pred() is true or Scaled(timeout) passes; returns pred()
 template <typename Pred>
 bool WaitUntil(Pred pred, std::chrono::milliseconds timeout) {
-  auto end = std::chrono::steady_clock::now() + timeout;
+  auto end = std::chrono::steady_clock::now() + Scaled(timeout);
   while (std::chrono::steady_clock::now() < end) {
     if (pred()) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));

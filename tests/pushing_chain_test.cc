@@ -40,7 +40,7 @@ TEST(PushingChain, AcceptsActionToGripperAndTrainsTheGripperSkillAcrossProcesses
        "exec " + Bin("coins") + " run --config " + COINS_PUSHING_CONFIG + " --steps 0 --actors 2 --shards 1 --quiet" +
            " --dir " + run.string() + " --set dds.domain=" + std::to_string(domain) +
            " --set replay.capacity_mb=128 --set orchestrator.checkpoint_period_s=5 --set run.max_restarts=2" +
-           " --set orchestrator.checkpoint_timeout_s=5"},
+           " --set orchestrator.checkpoint_timeout_s=" + ScaledSeconds(5)},
       (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   coins.push_back(std::move(*child));
@@ -93,7 +93,7 @@ TEST(PushingChain, AcceptsActionToGripperAndTrainsTheGripperSkillAcrossProcesses
   ASSERT_TRUE(WaitUntil([&] { return coins[0].Poll() || GripperUpdates(run) >= 20000; }, 300s)) << log();
   ASSERT_FALSE(coins[0].exited()) << log();
   coins[0].Signal(SIGTERM);
-  ASSERT_TRUE(coins[0].WaitFor(90s)) << log();
+  ASSERT_TRUE(coins[0].WaitFor(Scaled(90s))) << log();
   EXPECT_EQ(PidOf("coins-actor", run), -1) << "an actor outlived the run";
 
   auto eval = RunCommand(Bin("coins") + " eval " + run.string() + " --skill Gripper --episodes 100 --seed 3 --json");
@@ -123,7 +123,7 @@ TEST(PushingChain, AcceptsActionToGripperAndTrainsTheGripperSkillAcrossProcesses
   EXPECT_EQ(ChainState(run).value("phase", ""), "training-skill");
   EXPECT_EQ(ChainState(run)["links"].size(), 1u);
   coins[0].Signal(SIGTERM);
-  ASSERT_TRUE(coins[0].WaitFor(90s)) << resume_log();
+  ASSERT_TRUE(coins[0].WaitFor(Scaled(90s))) << resume_log();
   EXPECT_TRUE(coins[0].succeeded()) << resume_log();
 }
 

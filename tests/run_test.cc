@@ -82,7 +82,7 @@ void StopRunAndCheckCounts(const std::string& name, const std::string& extra) {
   ASSERT_TRUE(WaitUntil([&] { return log().find("listening") != std::string::npos; }, std::chrono::seconds(30)));
   std::this_thread::sleep_for(std::chrono::seconds(4));
   run[0].Signal(SIGTERM);
-  ASSERT_TRUE(run[0].WaitFor(std::chrono::seconds(90)));
+  ASSERT_TRUE(run[0].WaitFor(Scaled(std::chrono::seconds(90))));
   EXPECT_TRUE(run[0].succeeded()) << run[0].Describe();
   std::ifstream in(dir / "run.log");
   std::string out((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -17,7 +17,7 @@ TEST(Skeleton, EveryTransitionSentIsStoredExactlyOnce) {
   const int64_t steps = 20000;
   c.StartActors(steps);
   for (auto& a : c.actors) {
-    ASSERT_TRUE(a.WaitFor(std::chrono::seconds(90))) << a.name() << " did not finish";
+    ASSERT_TRUE(a.WaitFor(Scaled(std::chrono::seconds(90)))) << a.name() << " did not finish";
     ASSERT_TRUE(a.succeeded()) << a.name() << " " << a.Describe();
   }
   // actors wait for acknowledgements before exiting; shards drain their reader on SIGTERM
@@ -61,7 +61,7 @@ TEST(Skeleton, KillingOneActorLeavesTheRestExchangingData) {
       << "shards never reported data from both actors";
 
   c.actors[0].Signal(SIGKILL);
-  ASSERT_TRUE(c.actors[0].WaitFor(std::chrono::seconds(5)));
+  ASSERT_TRUE(c.actors[0].WaitFor(Scaled(std::chrono::seconds(5))));
   // past the participant lease, the survivors must still be alive and moving data
   std::this_thread::sleep_for(std::chrono::seconds(5));
   uint64_t before = stored_from(1, 1);
@@ -80,7 +80,7 @@ TEST(Skeleton, KillingOneActorLeavesTheRestExchangingData) {
 
   // a clean stop of the survivor: its shard holds exactly what it published
   c.actors[1].Signal(SIGTERM);
-  ASSERT_TRUE(c.actors[1].WaitFor(std::chrono::seconds(20)));
+  ASSERT_TRUE(c.actors[1].WaitFor(Scaled(std::chrono::seconds(20))));
   EXPECT_TRUE(c.actors[1].succeeded()) << c.actors[1].Describe();
   StopAll(c.shards, std::chrono::seconds(10));
   auto actor = ReadJson(c.dir / "actor-1.json");

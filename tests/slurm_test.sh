@@ -114,7 +114,7 @@ echo "slurm_test: cluster up (domain $domain, ports $port..$((port + 4))) after 
 # run_job NAME SECONDS SBATCH_ARGS... -- SCRIPT_ARGS...: submits coins.sbatch, waits for the end
 # (bounded) and checks that the job completed with exit code 0
 run_job() {
-  local name=$1 limit=$2 args=()
+  local name=$1 limit=$(($2 * ${COINS_TEST_TIME_SCALE:-1})) args=()
   shift 2
   while [ "$1" != -- ]; do args+=("$1") && shift; done
   shift

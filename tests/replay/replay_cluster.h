@@ -105,8 +105,8 @@ struct ReplayCluster {
   CommandResult Cli(const std::string& args) { return RunCommand(Bin("coins-replay-cli") + " " + args); }
   ~ReplayCluster() {
     collector.reset();
-    StopAll(actors, std::chrono::seconds(5));
-    StopAll(shards, std::chrono::seconds(5));
+    StopAll(actors, Scaled(std::chrono::seconds(5)));
+    StopAll(shards, Scaled(std::chrono::seconds(5)));
     // snapshots are large; logs and stats files stay for a failed test's reader
     std::error_code ec;
     std::filesystem::remove_all(dir / "snapshots", ec);

@@ -61,7 +61,7 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   uint64_t before_kill = c.Stats(0).inserted_transitions();
   EXPECT_GT(before_kill, snap_transitions);
   c.shards[0].Signal(SIGKILL);
-  ASSERT_TRUE(c.shards[0].WaitFor(5s));
+  ASSERT_TRUE(c.shards[0].WaitFor(Scaled(5s)));
   // restart past the participant lease (dds.lease_s, 4 s), as a supervisor would
   std::this_thread::sleep_for(4500ms);
   c.StartShard(0, flags);
@@ -78,7 +78,7 @@ TEST(ReplayResume, KillNineDuringInsertsThenResumeFromTheLastSnapshot) {
   EXPECT_FALSE(c.actors[0].Poll()) << "the actor died: " << c.actors[0].Describe();
 
   c.actors[0].Signal(SIGTERM);
-  ASSERT_TRUE(c.actors[0].WaitFor(30s));
+  ASSERT_TRUE(c.actors[0].WaitFor(Scaled(30s)));
   EXPECT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
   StopAll(c.shards, 20s);
   ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
@@ -153,7 +153,7 @@ TEST(ReplayResume, TruncatedAndBitFlippedSnapshotsAreReportedAndThePreviousOneUs
   c.Join();
   ASSERT_TRUE(WaitUntil([&] { return c.Stats(0).size() > 5000; }, 30s));
   ASSERT_EQ(c.Cli(fmt::format("snapshot --domain {} --shards 1", c.domain)).code, 0);
-  ASSERT_TRUE(c.actors[0].WaitFor(60s));
+  ASSERT_TRUE(c.actors[0].WaitFor(Scaled(60s)));
   ASSERT_EQ(c.Cli(fmt::format("snapshot --domain {} --shards 1", c.domain)).code, 0);
   StopAll(c.shards, 10s);
   auto files = Snapshots(snaps);
@@ -228,7 +228,7 @@ TEST(ReplayResume, ACleanStopWritesAFinalSnapshotThatARestartRestores) {
   std::vector<std::string> flags = {"--set", "replay.snapshot_dir=" + snaps.string()};
   c.StartShards(flags);
   c.StartActors(100000);
-  ASSERT_TRUE(c.actors[0].WaitFor(120s));
+  ASSERT_TRUE(c.actors[0].WaitFor(Scaled(120s)));
   ASSERT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
   StopAll(c.shards, 20s);
   ASSERT_TRUE(c.shards[0].succeeded()) << c.shards[0].Describe();
@@ -270,7 +270,7 @@ TEST(ReplayResume, TheActorResumesByItselfAfterEveryShardKill) {
   std::string failures;
   for (int k = 0; k < kills; ++k) {
     c.shards[0].Signal(SIGKILL);
-    ASSERT_TRUE(c.shards[0].WaitFor(5s));
+    ASSERT_TRUE(c.shards[0].WaitFor(Scaled(5s)));
     if (k % 4 == 3) std::this_thread::sleep_for(4500ms);  // past the lease now and then
     c.StartShard(0);
     // the new shard's own count: it starts from nothing
@@ -291,7 +291,7 @@ TEST(ReplayResume, TheActorResumesByItselfAfterEveryShardKill) {
 
   // a clean stop after the last restart: the shard holds the actor's stream up to its end
   c.actors[0].Signal(SIGTERM);
-  ASSERT_TRUE(c.actors[0].WaitFor(30s));
+  ASSERT_TRUE(c.actors[0].WaitFor(Scaled(30s)));
   EXPECT_TRUE(c.actors[0].succeeded()) << c.actors[0].Describe();
   StopAll(c.shards, 20s);
   auto shard = ReadJson(c.dir / "replay-0.json");

@@ -62,7 +62,7 @@ TEST(ReplaySampling, FeatureSubsetLevelMaskedGoalRequestsRoundTripThroughShards)
   ReplayClientOptions o;
   o.timeout = 5s;
   auto client = c.Client(o);
-  ASSERT_TRUE(client->WaitForShards(20s));
+  ASSERT_TRUE(client->WaitForShards(Scaled(20s)));
   SampleColumns cols;
   Status s;
   // a batch from both shards (on a loaded machine a shard's first reply can miss the client's

@@ -59,7 +59,7 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   c.StartActors(steps);
   c.Join();
   for (auto& a : c.actors) {
-    ASSERT_TRUE(a.WaitFor(90s)) << a.name() << " did not finish";
+    ASSERT_TRUE(a.WaitFor(Scaled(90s))) << a.name() << " did not finish";
     ASSERT_TRUE(a.succeeded()) << a.name() << " " << a.Describe();
   }
   ASSERT_TRUE(WaitUntil([&] { return c.Stats(0).size() > 0 && c.Stats(1).size() > 0; }, 20s));
@@ -69,7 +69,7 @@ TEST(ReplayService, ActorsToTwoShardsToASamplingClient) {
   o.n_step = 3;
   o.timeout = 5s;
   auto client = c.Client(o);
-  ASSERT_TRUE(client->WaitForShards(20s));
+  ASSERT_TRUE(client->WaitForShards(Scaled(20s)));
   rl::Batch batch;
   int batches = 0;  // batches of 256 the shards served together
   // uniform, n-step: both shards contribute in proportion to their sizes
@@ -185,7 +185,7 @@ TEST(ReplayService, RateLimiterBlocksWithinOneTimeoutAndReleasesWithinAnother) {
   ReplayClientOptions o;
   o.timeout = 2s;
   auto client = c.Client(o);
-  ASSERT_TRUE(client->WaitForShards(20s));
+  ASSERT_TRUE(client->WaitForShards(Scaled(20s)));
   rl::Batch batch;
   auto t0 = Clock::now();
   Status s = client->Sample(64, &batch);
@@ -237,7 +237,7 @@ TEST(ReplayService, ASilentShardIsSampledAroundTakenBackAndFailsTheClientOnlyAft
   o.timeout = 2s;
   o.shard_wait = 4s;
   auto client = c.Client(o);
-  ASSERT_TRUE(client->WaitForShards(20s));
+  ASSERT_TRUE(client->WaitForShards(Scaled(20s)));
   rl::Batch batch;
   auto sampled_shards = [&] {
     std::set<uint32_t> s;

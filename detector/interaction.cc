@@ -6,6 +6,8 @@
 #include <cmath>
 #include <random>
 
+#include <fmt/format.h>
+
 namespace coins::detector {
 
 namespace {
@@ -119,6 +121,44 @@ Result<PairDetector> PairDetector::Train(const envs::EnvSpec& spec, const Transi
   return det;
 }
 
+Eigen::MatrixXf PairDetector::ActiveLlWithOtherSources(const Detection& d, const std::vector<int64_t>& at) {
+  const int64_t m = d.samples.size();
+  const int src = layout_.source_input_dim(), nrel = layout_.relative_dim();
+  const int tfeat = layout_.target_features;
+  Eigen::MatrixXf in(layout_.active_input_dim(), at.size()), tgt(layout_.output_dim(), at.size());
+  Eigen::VectorXf ll;
+  Eigen::MatrixXf out(Eigen::Index(at.size()), options_.counterfactual_draws);
+  std::mt19937_64 rng(options_.seed + 31);
+  std::uniform_int_distribution<int64_t> pick(0, m - 1);
+  for (int k = 0; k < options_.counterfactual_draws; ++k) {
+    for (size_t c = 0; c < at.size(); ++c) {
+      const int64_t j = at[c];
+      // another sample whose source differs (what if the source had been different)
+      int64_t o = pick(rng);
+      for (int tries = 0; tries < 16; ++tries) {
+        if (d.samples.active_in.col(o).head(src) != d.samples.active_in.col(j).head(src)) break;
+        o = pick(rng);
+      }
+      in.col(c) = d.samples.active_in.col(j);
+      tgt.col(c) = d.samples.target.col(j);
+      // the other sample's source, and relative positions recomputed against this target:
+      // rel = (a - b) / r and normalised b = (b - mid) / half_b, so moving the other source onto
+      // this target shifts rel by the difference of b in env units over r
+      in.col(c).head(src) = d.samples.active_in.col(o).head(src);
+      for (int p = 0; p < nrel; ++p) {
+        const int ib = layout_.positions[p % int(layout_.positions.size())].second;
+        const float rel_o = d.samples.active_in(src + tfeat + p, o);
+        const float half_b = 0.5f * (layout_.target_high[ib] - layout_.target_low[ib]);
+        const float db = d.samples.active_in(src + ib, o) - d.samples.active_in(src + ib, j);
+        in(src + tfeat + p, c) = rel_o + db * half_b / layout_.relative_scale(p % int(layout_.positions.size()));
+      }
+    }
+    active_.LogLikelihood(in, tgt, &ll);
+    out.col(k) = ll;
+  }
+  return out;
+}
+
 PairDetector::Detection PairDetector::Detect(const TransitionSet& data, bool all_instances) {
   Detection d;
   d.samples = EncodePairs(layout_, data, options_, all_instances, options_.seed + 23);
@@ -149,42 +189,9 @@ PairDetector::Detection PairDetector::Detect(const TransitionSet& data, bool all
     if (d.h[j]) cand.push_back(j);
   }
   if (options_.counterfactual_draws > 0 && !cand.empty() && m > 1) {
-    const int src = layout_.source_input_dim(), nrel = layout_.relative_dim();
-    const int tfeat = layout_.target_features;
-    Eigen::MatrixXf in(layout_.active_input_dim(), cand.size()), tgt(layout_.output_dim(), cand.size());
-    Eigen::VectorXf ll, sum = Eigen::VectorXf::Zero(cand.size());
-    std::mt19937_64 rng(options_.seed + 31);
-    std::uniform_int_distribution<int64_t> pick(0, m - 1);
-    for (int k = 0; k < options_.counterfactual_draws; ++k) {
-      for (size_t c = 0; c < cand.size(); ++c) {
-        const int64_t j = cand[c];
-        // another sample whose source differs (what if the source had been different)
-        int64_t o = pick(rng);
-        for (int tries = 0; tries < 16; ++tries) {
-          if (d.samples.active_in.col(o).head(src) != d.samples.active_in.col(j).head(src)) break;
-          o = pick(rng);
-        }
-        in.col(c) = d.samples.active_in.col(j);
-        tgt.col(c) = d.samples.target.col(j);
-        // the other sample's source, and relative positions recomputed against this target
-        in.col(c).head(src) = d.samples.active_in.col(o).head(src);
-        for (int p = 0; p < nrel; ++p) {
-          const int ib = layout_.positions[p % int(layout_.positions.size())].second;
-          const float rel_o = d.samples.active_in(src + tfeat + p, o);
-          // rel = (a - b) / half_b: shift by the difference of the two targets' b
-          // rel = (a - b) / r and normalised b = (b - mid) / half_b, so moving the other
-          // source onto this target shifts rel by the difference of b in env units over r
-          const float half_b = 0.5f * (layout_.target_high[ib] - layout_.target_low[ib]);
-          const float db = d.samples.active_in(src + ib, o) - d.samples.active_in(src + ib, j);
-          in(src + tfeat + p, c) = rel_o + db * half_b / layout_.relative_scale(p % int(layout_.positions.size()));
-        }
-      }
-      active_.LogLikelihood(in, tgt, &ll);
-      sum += ll;
-    }
+    const Eigen::VectorXf cf = ActiveLlWithOtherSources(d, cand).rowwise().mean();
     for (size_t c = 0; c < cand.size(); ++c) {
-      const float cf = sum[c] / float(options_.counterfactual_draws);
-      if (d.ll_act[cand[c]] - cf <= options_.eps_cf) {
+      if (d.ll_act[cand[c]] - cf[Eigen::Index(c)] <= options_.eps_cf) {
         d.h[cand[c]] = 0;
         d.why[cand[c]] |= kWhyCounterfactual;
       }
@@ -222,7 +229,25 @@ PairScores PairDetector::Score(const TransitionSet& data) {
     sum += double(d.ll_act[j]) - double(d.ll_pas[j]);
   }
   r.interactions = int64_t(hits.size());
-  if (r.interactions >= options_.min_interactions) r.score = sum / double(r.interactions);
+  // detections expected by chance: the states a detection could be at (passive wrong, close),
+  // with other transitions' sources in place of their own
+  if (options_.counterfactual_draws > 0 && m > 1) {
+    std::vector<int64_t> open;
+    const bool gate = options_.proximity_gate && L.has_proximity();
+    for (int64_t j = 0; j < m; ++j) {
+      if (d.ll_pas[j] < options_.eps_pas && (!gate || d.samples.close[j])) open.push_back(j);
+    }
+    if (!open.empty()) {
+      const Eigen::MatrixXf other = ActiveLlWithOtherSources(d, open);
+      r.chance_interactions = double((other.array() > options_.eps_act).count()) / double(other.cols());
+    }
+  }
+  const bool above_chance = double(r.interactions) > options_.chance_ratio * r.chance_interactions;
+  if (r.interactions >= options_.min_interactions && above_chance) r.score = sum / double(r.interactions);
+  if (r.interactions >= options_.min_interactions && !above_chance) {
+    r.note = fmt::format("{} detections, not above {:g} x the {:.1f} with other transitions' sources (chance)",
+                         r.interactions, options_.chance_ratio, r.chance_interactions);
+  }
   r.pass = r.score > options_.eps_si;
   if (hits.empty()) return r;
 

@@ -44,7 +44,10 @@ struct PairScores {
   double score = 0.0;     // Sc_I (eq. 9)
   double mg_score = 0.0;  // eq. 7
   double mean_ll_act = 0.0, mean_ll_pas = 0.0;
-  int64_t interactions = 0;      // N_int: detected (sample-level)
+  int64_t interactions = 0;  // N_int: detected (sample-level)
+  // detections with other transitions' sources in place of the real ones (mean over the
+  // counterfactual draws): what a source unrelated to the target would score
+  double chance_interactions = 0.0;
   bool pass = false;             // score > eps_si
   std::vector<int> mask;         // eta_b, one per target feature
   std::vector<float> mask_diff;  // d_k of eq. 10 (normalised units)
@@ -107,6 +110,10 @@ class PairDetector {
   GaussianModel& active() { return active_; }
 
  private:
+  // the active model's log-likelihood of the samples `at` with the source (and relative
+  // positions) of randomly drawn other samples: at.size() x counterfactual_draws
+  Eigen::MatrixXf ActiveLlWithOtherSources(const Detection& d, const std::vector<int64_t>& at);
+
   PairLayout layout_;
   DetectorOptions options_;
   GaussianModel passive_, active_;

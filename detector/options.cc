@@ -40,6 +40,8 @@ void DetectorOptions::Visit(ConfigVisitor& v) {
   VisitFloat(v, "eps_pas", eps_pas, -kBig, kBig, "passive log-likelihood threshold");
   VisitFloat(v, "eps_si", eps_si, -kBig, kBig, "Sc_I threshold reported as pass");
   VisitInt(v, "min_interactions", min_interactions, 1, int64_t(kBig), "fewer detections: Sc_I = 0");
+  VisitFloat(v, "chance_ratio", chance_ratio, 0, kBig,
+             "detections must be more than this many times those by chance (0: off), else Sc_I = 0");
   VisitInt(v, "counterfactual_draws", counterfactual_draws, 0, 1000, "counterfactual source draws (0: off)");
   VisitFloat(v, "eps_cf", eps_cf, -kBig, kBig, "counterfactual log-likelihood margin");
   // mask and goal set

@@ -53,6 +53,13 @@ struct DetectorOptions {
   float eps_pas = 0.0f;
   float eps_si = 3.0f;        // paper: 3 to 5 (5 in its runs; our scales differ)
   int min_interactions = 10;  // fewer detected interactions: Sc_I = 0 (too little evidence)
+  // Sc_I = 0 too unless the detections are more than chance_ratio times those with other
+  // transitions' sources in place of the real ones (PairScores::chance_interactions; 0: off).
+  // An active model that learned a chance association at rare target events detects as often
+  // with any source: Action->Ball, 0-2 detections against 0.3-7 by chance on 10k random steps,
+  // once scored 12.1 on 11 detections and beat Action->Paddle's 4.35. True links are far above
+  // chance: Action->Paddle ~1860 vs ~345, Paddle->Ball ~20 vs < 1, Gripper->Block 24 vs 3.
+  float chance_ratio = 2.0f;
   // counterfactual check: h also needs ll_act(s_a, s_b) - mean_k ll_act(s_a~k, s_b) > eps_cf,
   // with s_a~k the source of other transitions (0 draws turns the check off)
   int counterfactual_draws = 3;

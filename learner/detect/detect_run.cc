@@ -144,6 +144,7 @@ void AddScores(const PairScores& s, nlohmann::json& j) {
   j["mean_ll_act"] = Num(s.mean_ll_act);
   j["mean_ll_pas"] = Num(s.mean_ll_pas);
   j["interactions"] = s.interactions;
+  j["chance_interactions"] = Num(s.chance_interactions);
   j["samples"] = s.samples;
   j["features"] = s.feature_names;
   j["mask"] = s.mask;

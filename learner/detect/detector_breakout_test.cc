@@ -38,6 +38,9 @@ TEST(BreakoutDetector, ActionPaddlePassesActionBallAndBlockFail) {
   const PairScores paddle = TrainAndScore(spec, train, scored, "Action", "Paddle", o);
   EXPECT_TRUE(paddle.pass) << "Sc_I " << paddle.score;
   EXPECT_GT(paddle.score, o.eps_si);
+  // other actions move the paddle alike now and then, far less often than its own
+  EXPECT_GT(paddle.chance_interactions, 10.0);
+  EXPECT_GT(double(paddle.interactions), 3.0 * paddle.chance_interactions);
   EXPECT_GT(paddle.interactions, 1000);                       // the paddle moves on about half of the steps
   EXPECT_EQ(paddle.mask, (std::vector<int>{0, 1, 0, 0, 0}));  // only x
   EXPECT_EQ(paddle.goals.kind, GoalSet::Kind::kContinuous);
@@ -47,10 +50,39 @@ TEST(BreakoutDetector, ActionPaddlePassesActionBallAndBlockFail) {
 
   const PairScores ball = TrainAndScore(spec, train, scored, "Action", "Ball", o);
   EXPECT_FALSE(ball.pass) << "Sc_I " << ball.score << " N_int " << ball.interactions;
+  // the few Action->Ball detections are chance: other actions give as many
+  EXPECT_GE(ball.chance_interactions, double(ball.interactions)) << "N_int " << ball.interactions;
   EXPECT_LT(ball.score, paddle.score);
   const PairScores block = TrainAndScore(spec, train, scored, "Action", "Block", o);
   EXPECT_FALSE(block.pass) << "Sc_I " << block.score << " N_int " << block.interactions;
   EXPECT_LT(block.score, paddle.score);
+}
+
+// detections not above chance_ratio times those by chance give no Sc_I, and the note says why
+TEST(BreakoutDetector, DetectionsNoMoreThanChanceScoreZero) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  const TransitionSet data = Collect("breakout", "random", 20000, 1);
+  const TransitionSet train = data.Slice(0, 16000), scored = data.Slice(16000, 20000);
+  DetectorOptions o = FastOptions();
+  const PairScores paddle = TrainAndScore(spec, train, scored, "Action", "Paddle", o);
+  ASSERT_TRUE(paddle.pass);
+  ASSERT_GT(paddle.chance_interactions, 0.0);
+  EXPECT_EQ(paddle.note, "");
+
+  // the same models and data, asking for more detections above chance than they have
+  o.chance_ratio = float(double(paddle.interactions) / paddle.chance_interactions) + 1.0f;
+  const PairScores strict = TrainAndScore(spec, train, scored, "Action", "Paddle", o);
+  EXPECT_EQ(strict.interactions, paddle.interactions);
+  EXPECT_EQ(strict.chance_interactions, paddle.chance_interactions);
+  EXPECT_EQ(strict.score, 0.0);
+  EXPECT_FALSE(strict.pass);
+  EXPECT_NE(strict.note.find("detections, not above"), std::string::npos) << strict.note;
+  EXPECT_NE(strict.note.find("(chance)"), std::string::npos) << strict.note;
+
+  // off: the real detections alone decide
+  o.chance_ratio = 0.0f;
+  EXPECT_EQ(TrainAndScore(spec, train, scored, "Action", "Paddle", o).score, paddle.score);
 }
 
 TEST(BreakoutDetector, PaddleBallPassesWithVelocityMaskAndTheFourBounces) {

@@ -34,9 +34,9 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
       {"/bin/sh", "-c",
        "exec " + Bin("coins") + " run --steps 0 --actors 2 --shards 1 --quiet --dir " + run.string() +
            " --set dds.domain=" + std::to_string(domain) +
-           " --set replay.capacity_mb=128 --set run.max_restarts=2 --set orchestrator.checkpoint_period_s=3"
-           " --set orchestrator.checkpoint_timeout_s=" +
-           ScaledSeconds(3) + " --set orchestrator.skill_max_steps=300000"},
+           " --set replay.capacity_mb=128 --set run.max_restarts=2 --set orchestrator.checkpoint_period_s=" +
+           ScaledSeconds(3) + " --set orchestrator.checkpoint_timeout_s=" + ScaledSeconds(3) +
+           " --set orchestrator.skill_max_steps=300000"},
       (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   coins.push_back(std::move(*child));

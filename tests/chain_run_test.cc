@@ -202,16 +202,16 @@ TEST(ChainRun, ResumeRefusesWithOneLineWhatDiffersOrIsMissing) {
       << r.output;
 }
 
-// the chain stays in collecting (detect point out of reach) while epochs are cut every 2 s:
+// the chain stays in collecting (detect point out of reach) while epochs are cut every 2 s (times
+// the test time scale):
 // the shard snapshots and the learner checkpoints, all acknowledged
 TEST(ChainRun, ResumeStartsShardsLearnerAndOrchestratorFromTheNewestCompleteEpoch) {
   auto dir = TempDir("chain-resume");
   const fs::path run = dir / "run";
   const std::string chain_flags =
       " --set orchestrator.detect_every_steps=1000000000 --set "
-      "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 "
-      "--set orchestrator.checkpoint_timeout_s=" +
-      ScaledSeconds(2);
+      "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=" +
+      ScaledSeconds(2) + " --set orchestrator.checkpoint_timeout_s=" + ScaledSeconds(2);
   std::vector<ChildProcess> coins;
   auto first = ChildProcess::Spawn("coins-run",
                                    {"/bin/sh", "-c",
@@ -316,9 +316,8 @@ TEST(ChainRun, AResumedActorHostCountsOnFromTheChainsEnvSteps) {
   const int domain = TestDomain(8);
   const std::string common =
       " --steps 0 --actors 1 --shards 1 --quiet --set orchestrator.detect_every_steps=1000000000 --set "
-      "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=2 --set "
-      "orchestrator.checkpoint_timeout_s=" +
-      ScaledSeconds(2);
+      "orchestrator.detect_budget_steps=1000000000 --set orchestrator.checkpoint_period_s=" +
+      ScaledSeconds(2) + " --set orchestrator.checkpoint_timeout_s=" + ScaledSeconds(2);
   const std::string roles_a = " --role replay,learner,orchestrator", roles_b = " --role actors";
   auto start = [&](const std::string& args, const fs::path& log) {
     auto c = ChildProcess::Spawn("coins-run", {"/bin/sh", "-c", "exec " + Bin("coins") + " run" + args}, log.string());

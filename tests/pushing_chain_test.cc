@@ -39,8 +39,8 @@ TEST(PushingChain, AcceptsActionToGripperAndTrainsTheGripperSkillAcrossProcesses
       {"/bin/sh", "-c",
        "exec " + Bin("coins") + " run --config " + COINS_PUSHING_CONFIG + " --steps 0 --actors 2 --shards 1 --quiet" +
            " --dir " + run.string() + " --set dds.domain=" + std::to_string(domain) +
-           " --set replay.capacity_mb=128 --set orchestrator.checkpoint_period_s=5 --set run.max_restarts=2" +
-           " --set orchestrator.checkpoint_timeout_s=" + ScaledSeconds(5)},
+           " --set replay.capacity_mb=128 --set orchestrator.checkpoint_period_s=" + ScaledSeconds(5) +
+           " --set run.max_restarts=2" + " --set orchestrator.checkpoint_timeout_s=" + ScaledSeconds(5)},
       (dir / "run.log").string());
   ASSERT_TRUE(child.ok());
   coins.push_back(std::move(*child));

@@ -138,7 +138,7 @@ uint64_t ChunkStore::Insert(const TransitionBatch& b, bool continues) {
   uint64_t h = StoredHeaderHash(c);
   auto put = [&](int64_t at, const auto& v) {
     using T = typename std::decay_t<decltype(v)>::value_type;
-    std::memcpy(base + at, v.data(), v.size() * sizeof(T));
+    if (!v.empty()) std::memcpy(base + at, v.data(), v.size() * sizeof(T));  // an empty column may have no data
     h = HashBytes(base + at, v.size() * sizeof(T), h);
   };
   put(o.first_state, b.first_state());

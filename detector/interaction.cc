@@ -232,13 +232,13 @@ PairScores PairDetector::Score(const TransitionSet& data) {
   // detections expected by chance: the states a detection could be at (passive wrong, close),
   // with other transitions' sources in place of their own
   if (options_.counterfactual_draws > 0 && m > 1) {
-    std::vector<int64_t> open;
+    std::vector<int64_t> possible;
     const bool gate = options_.proximity_gate && L.has_proximity();
     for (int64_t j = 0; j < m; ++j) {
-      if (d.ll_pas[j] < options_.eps_pas && (!gate || d.samples.close[j])) open.push_back(j);
+      if (d.ll_pas[j] < options_.eps_pas && (!gate || d.samples.close[j])) possible.push_back(j);
     }
-    if (!open.empty()) {
-      const Eigen::MatrixXf other = ActiveLlWithOtherSources(d, open);
+    if (!possible.empty()) {
+      const Eigen::MatrixXf other = ActiveLlWithOtherSources(d, possible);
       r.chance_interactions = double((other.array() > options_.eps_act).count()) / double(other.cols());
     }
   }

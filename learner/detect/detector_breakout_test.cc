@@ -80,9 +80,17 @@ TEST(BreakoutDetector, DetectionsNoMoreThanChanceScoreZero) {
   EXPECT_NE(strict.note.find("detections, not above"), std::string::npos) << strict.note;
   EXPECT_NE(strict.note.find("(chance)"), std::string::npos) << strict.note;
 
-  // off: the real detections alone decide
+  // Action->Ball, counted from one detection: no more than chance, so no score; with the check
+  // off (ratio 0) the same detection scores
+  o = FastOptions();
+  o.min_interactions = 1;
+  const PairScores ball = TrainAndScore(spec, train, scored, "Action", "Ball", o);
+  ASSERT_GE(ball.interactions, 1);
+  ASSERT_LE(double(ball.interactions), o.chance_ratio * ball.chance_interactions);
+  EXPECT_EQ(ball.score, 0.0);
+  EXPECT_NE(ball.note.find("(chance)"), std::string::npos) << ball.note;
   o.chance_ratio = 0.0f;
-  EXPECT_EQ(TrainAndScore(spec, train, scored, "Action", "Paddle", o).score, paddle.score);
+  EXPECT_GT(TrainAndScore(spec, train, scored, "Action", "Ball", o).score, 0.0);
 }
 
 TEST(BreakoutDetector, PaddleBallPassesWithVelocityMaskAndTheFourBounces) {

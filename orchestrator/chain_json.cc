@@ -49,6 +49,7 @@ class JsonIn {
   const json* List(const char* k) {
     return Get(k, "a list", [](const json& e) { return e.is_array(); });
   }
+  bool Has(const char* k) const { return j_.is_object() && j_.contains(k); }
   std::string Where(const std::string& k) const { return where_.empty() ? k : where_ + "." + k; }
   bool ok() const { return status_->ok(); }
 
@@ -120,6 +121,7 @@ json ToJson(const Score& s) {
           {"score", Num(s.score)},
           {"mg_score", Num(s.mg_score)},
           {"interactions", s.interactions},
+          {"chance_interactions", Num(s.chance_interactions)},
           {"transitions", s.transitions},
           {"pass", s.pass},
           {"eligible", s.eligible},
@@ -136,6 +138,8 @@ void FromJson(JsonIn in, Score& s) {
   in.Bool("eligible", s.eligible), in.Str("note", s.note), in.Floats("mask", s.mask), in.Str("goal_kind", s.goal_kind);
   in.Floats("goal_set", s.goal_set), in.F64("interaction_rate", s.interaction_rate);
   in.F64("train_seconds", s.train_seconds);
+  // states written before the chance count was kept have none: 0
+  if (in.Has("chance_interactions")) in.F64("chance_interactions", s.chance_interactions);
 }
 
 }  // namespace

@@ -40,6 +40,7 @@ chain::Score FromMessage(const msg::InteractionScore& m) {
   s.score = m.score();
   s.mg_score = m.mg_score();
   s.interactions = m.interactions();
+  s.chance_interactions = m.chance_interactions();
   s.transitions = m.transitions();
   s.pass = m.pass();
   s.eligible = m.eligible();
@@ -104,6 +105,7 @@ msg::InteractionScore ToMessage(const chain::Score& s) {
   m.score(s.score);
   m.mg_score(s.mg_score);
   m.interactions(s.interactions);
+  m.chance_interactions(s.chance_interactions);
   m.transitions(s.transitions);
   m.pass(s.pass);
   m.eligible(s.eligible);

@@ -54,6 +54,7 @@ struct Score {
   std::string source, target;
   double score = 0, mg_score = 0;
   uint64_t interactions = 0, transitions = 0;
+  double chance_interactions = 0;  // detections with other transitions' sources
   bool pass = false, eligible = false;
   std::string note;
   std::vector<float> mask;

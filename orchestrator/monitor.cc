@@ -47,8 +47,9 @@ std::string ChainTable(const StatusView& v) {
         l.source(), l.target(), l.score(), l.state(), l.skill_success(), l.accepted_at_steps(), l.learned_at_steps(),
         Floats(l.mask()), l.goal_kind(), Floats(l.goal_set()));
   for (const auto& s : c.last_scores())
-    out << fmt::format("  score {}->{}: Sc_I {:.2f}{}{}\n", s.source(), s.target(), s.score(),
-                       s.eligible() ? "" : " (not eligible)", s.note().empty() ? "" : " " + s.note());
+    out << fmt::format("  score {}->{}: Sc_I {:.2f}, {} detections ({:.1f} by chance){}{}\n", s.source(), s.target(),
+                       s.score(), s.interactions(), s.chance_interactions(), s.eligible() ? "" : " (not eligible)",
+                       s.note().empty() ? "" : " " + s.note());
   if (c.eval_env_steps())
     out << fmt::format("  eval return {:.2f} +- {:.2f} at {} env steps\n", c.eval_return_mean(), c.eval_return_sd(),
                        c.eval_env_steps());

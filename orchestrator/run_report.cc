@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -298,6 +299,8 @@ json RunSummary(const StatusView& v, double wall_s, int64_t restarts) {
     j["last_scores"].push_back({{"source", s.source()},
                                 {"target", s.target()},
                                 {"score", s.score()},
+                                {"interactions", s.interactions()},
+                                {"chance_interactions", s.chance_interactions()},
                                 {"eligible", s.eligible()},
                                 {"note", s.note()}});
   if (c.eval_env_steps())
@@ -342,6 +345,20 @@ std::string ChoiceLine(const json& c) {
       c.value("goals", uint64_t(0)), c.value("hit_rate", 0.0), c.value("success", 0.0), c.value("final_hit_rate", 0.0),
       c.value("final_success", 0.0));
 }
+// one scored pair of the newest detect round (rejected pairs too: why the chain stopped there)
+std::string ScoreLine(const json& sc) {
+  const auto number = [&](const char* k) {
+    return sc.contains(k) && sc[k].is_number() ? sc[k].get<double>() : std::numeric_limits<double>::quiet_NaN();
+  };
+  std::string line =
+      fmt::format("    {}->{}: Sc_I {:.2f}", sc.value("source", "?"), sc.value("target", "?"), number("score"));
+  if (sc.contains("interactions"))
+    line +=
+        fmt::format(", {:.0f} detections ({:.1f} by chance)", number("interactions"), number("chance_interactions"));
+  if (!sc.value("eligible", true)) line += ", not eligible";
+  const std::string note = sc.value("note", "");
+  return line + (note.empty() ? "" : ": " + note) + "\n";
+}
 }  // namespace
 
 std::string FormatSummary(const json& s) {
@@ -365,6 +382,11 @@ std::string FormatSummary(const json& s) {
     if (s.contains("skill_choices") && s["skill_choices"].is_array())
       for (const json& c : s["skill_choices"])
         if (c.is_object() && c.value("level", 0) == level) out += ChoiceLine(c);
+  }
+  if (s.contains("last_scores") && s["last_scores"].is_array() && !s["last_scores"].empty()) {
+    out += "  newest detect round:\n";
+    for (const json& sc : s["last_scores"])
+      if (sc.is_object()) out += ScoreLine(sc);
   }
   if (s.contains("detector"))
     out += fmt::format(

@@ -218,8 +218,19 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
             "chain training-skill | Action->Paddle 6.20 0.93 | Paddle->Ball 4.10 0.40* | eval 12.3+-2.0 | lag 1.5 | "
             "250 upd/s | epoch 3 | restarts 2");
   EXPECT_EQ(ChainProgress(StatusView{}, 0), "chain (no status yet) | restarts 0");
+  // the newest detect round, a rejected pair among its scores
+  msg::InteractionScore block;
+  block.source("Ball");
+  block.target("Block");
+  block.score(0);
+  block.interactions(3);
+  block.chance_interactions(2.5);
+  block.eligible(false);
+  block.note("3 detections are not above 2 x 2.5 by chance");
+  v.chain->sample.last_scores({block});
   auto summary = RunSummary(v, 61.5, 2);
   EXPECT_EQ(summary["links"].size(), 2u);
+  EXPECT_EQ(summary["last_scores"][0]["chance_interactions"], 2.5);
   EXPECT_EQ(summary["links"][0]["learned_at_steps"], 40'000);
   std::string text = FormatSummary(summary);
   EXPECT_NE(text.find("phase training-skill after 61.5 s, 123.5k env steps, 2 restarts"), std::string::npos) << text;
@@ -228,6 +239,10 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
       << text;
   EXPECT_NE(text.find("level 2 Paddle->Ball: Sc_I 4.10, accepted at 10.0k, not learned"), std::string::npos) << text;
   EXPECT_NE(text.find("mask [1 0 0]; goals continuous [-1] .. [1]"), std::string::npos) << text;
+  EXPECT_NE(text.find("newest detect round:\n    Ball->Block: Sc_I 0.00, 3 detections (2.5 by chance), not eligible: 3 "
+                      "detections are not above 2 x 2.5 by chance\n"),
+            std::string::npos)
+      << text;
   EXPECT_NE(text.find("newest eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;
   EXPECT_NE(text.find("detector Paddle->Ball against the env's labels: 4e-05 false positives per state, 0.0200 of 1600 "
                       "interactions missed (100000 states)"),

@@ -338,8 +338,10 @@ bool ChainMachine::LearnerFailed(const LearnerReport& r) {
 }
 
 bool ChainMachine::MissedScores(const LearnerReport& r) {
-  // the learner says it published this round's scores, yet none came (else the phase changed)
-  if (r.job != "detect" || r.scores_round < s_.round) return false;
+  // the learner says it is done with this command, having published this round's scores, yet
+  // none came (else the phase changed). A learner still running the command may report the
+  // round of an earlier source's scores: that is no answer to this one
+  if (r.job != "detect" || r.state != "done" || r.scores_round < s_.round) return false;
   if (++s_.lost_score_reports < 3) return false;
   s_.lost_score_reports = 0;
   s_.round++;

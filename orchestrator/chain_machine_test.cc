@@ -374,6 +374,33 @@ TEST(ChainMachine, ScoresThatNeverArriveAreAskedForAgain) {
   EXPECT_EQ(c.m.command().step_base, 1000u);  // the same data, scored again
 }
 
+// the first round of the next source: a learner that starts scoring it still reports the round
+// of the previous source's scores (1) until it publishes this one's; that is no lost answer
+TEST(ChainMachine, ALearnerStillScoringIsNotTakenForLostScores) {
+  Chain c;
+  AcceptPaddle(c.m);
+  uint64_t started = 0, got = 0;
+  c.m.OnSkillCounts(1, 0, 0);
+  for (uint64_t at : {1200, 1400, 1600, 3000}) Window(c.m, 1, at, 9, &started, &got);
+  ASSERT_EQ(c.m.state().phase, Phase::kCollecting);
+  ASSERT_TRUE(c.m.OnEnvSteps(4000));
+  ASSERT_EQ(c.m.state().phase, Phase::kDetecting);
+  const Command cmd = c.m.command();
+  ASSERT_EQ(cmd.source, "Paddle");
+  ASSERT_EQ(cmd.round, 1u);
+  LearnerReport r;
+  r.command_seq = cmd.seq;
+  r.job = "detect";
+  r.state = "running";
+  r.scores_round = 1;  // Action's round 1
+  for (int i = 0; i < 10; ++i) EXPECT_FALSE(c.m.OnLearner(r));
+  EXPECT_EQ(c.m.command().seq, cmd.seq);
+  EXPECT_EQ(c.m.command().round, 1u);
+  // the answer then comes and is taken
+  ASSERT_TRUE(c.m.OnScores(Answer(c.m, {MakeScore("Paddle", "Ball", 50.0)})));
+  EXPECT_EQ(c.m.state().links.back().spec.target, "Ball");
+}
+
 // only Block (a multi-instance class, never a skill's goal) is left beside the learned Paddle:
 // no round could accept a link, so the chain ends as the skill is learned
 TEST(ChainMachine, NoTargetASkillCouldControlEndsTheChainAsTheSkillIsLearned) {

@@ -101,7 +101,9 @@ nlohmann::json Json(const StatusView& v) {
                            {"shard", a.sample.shard()},
                            {"steps", a.sample.steps()},
                            {"steps_per_s", a.sample.steps_per_s()},
-                           {"transitions_published", a.sample.transitions_published()}});
+                           {"transitions_published", a.sample.transitions_published()},
+                           {"goals_started", a.sample.goals_started()},
+                           {"goals_reached", a.sample.goals_reached()}});
   j["shards"] = nlohmann::json::array();
   for (const auto& [id, s] : v.shards)
     j["shards"].push_back({{"shard_id", id},

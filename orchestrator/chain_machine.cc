@@ -253,6 +253,10 @@ bool UpdateSuccess(SuccessTracker& t, uint64_t started, uint64_t reached, uint64
   return true;
 }
 
+int64_t ChainMachine::Patience() const {
+  return s_.links.size() == 1 ? o_.primitive_n_complete_goals : o_.n_complete_goals;
+}
+
 bool ChainMachine::CheckSkill() {
   Link& l = s_.links.back();
   const uint64_t in_phase = s_.env_steps - s_.phase_start;
@@ -262,7 +266,7 @@ bool ChainMachine::CheckSkill() {
     why = fmt::format("its budget of {} steps is spent (success {:.3f})", Steps(uint64_t(o_.skill_max_steps)),
                       l.success.rate);
   } else if (l.success.windows > 0 && l.success.goals >= uint64_t(o_.skill_min_goals) &&
-             l.success.goals - l.success.best_at_goals >= uint64_t(o_.n_complete_goals)) {
+             l.success.goals - l.success.best_at_goals >= uint64_t(Patience())) {
     l.learned_by = "converged";
     why = fmt::format("success {:.3f} has not risen by more than {} for {} goals ({} steps)", l.success.rate,
                       o_.success_tolerance, l.success.goals - l.success.best_at_goals,

@@ -67,6 +67,8 @@ class ChainMachine {
   bool NoLinkThisRound(const std::string& why);
   bool EndChain(const std::string& why);
   bool CheckSkill();
+  // goals without a rise that converge the skill in training (level 1: primitive_n_complete_goals)
+  int64_t Patience() const;
   bool CheckTask();
   bool LearnerFailed(const LearnerReport& report);
   void TrackEval(const LearnerReport& report);

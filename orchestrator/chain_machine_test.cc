@@ -34,6 +34,7 @@ OrchestratorOptions SmallOptions() {
   o.detect_every_steps = 1000;
   o.detect_budget_steps = 3000;
   o.n_complete_goals = 20;
+  o.primitive_n_complete_goals = 20;
   o.success_tolerance = 0.01;
   o.success_window_goals = 10;
   o.skill_min_goals = 40;
@@ -233,6 +234,35 @@ TEST(ChainMachine, SkillConvergesWhenSuccessStopsImprovingAfterTheMinimum) {
   EXPECT_EQ(cmd.acting_level, 1);   // the Paddle skill runs with random goals
   EXPECT_EQ(cmd.step_base, 4000u);  // learned at 3000 + detect_every_steps
   EXPECT_EQ(c.m.Targets(), (std::vector<std::string>{"Ball", "Block"}));
+}
+
+// the first skill (over primitive actions) has its own patience; the skills above it the other
+TEST(ChainMachine, TheFirstSkillConvergesByItsOwnPatience) {
+  OrchestratorOptions o = SmallOptions();
+  o.primitive_n_complete_goals = 10;
+  o.n_complete_goals = 40;
+  ChainMachine m(BreakoutLikeSpec(), o);
+  AcceptPaddle(m);
+  uint64_t started = 0, got = 0;
+  m.OnSkillCounts(1, 0, 0);
+  Window(m, 1, 1200, 5, &started, &got);
+  Window(m, 1, 1400, 7, &started, &got);
+  Window(m, 1, 1600, 9, &started, &got);  // best at 30 goals
+  ASSERT_EQ(m.state().phase, Phase::kTrainingSkill);
+  Window(m, 1, 1800, 9, &started, &got);  // 40 goals (the minimum), 10 since the best
+  ASSERT_EQ(m.state().phase, Phase::kCollecting);
+  EXPECT_EQ(m.state().links[0].learned_at_steps, 1800u);
+  ASSERT_TRUE(m.OnEnvSteps(2800));
+  ASSERT_TRUE(m.OnScores(Answer(m, {MakeScore("Paddle", "Ball", 50.0)})));
+  ASSERT_EQ(m.state().links.size(), 2u);
+  started = got = 0;
+  m.OnSkillCounts(2, 0, 0);
+  Window(m, 2, 3000, 5, &started, &got);  // best at 10 goals
+  for (uint64_t at : {3200, 3400, 3600}) Window(m, 2, at, 5, &started, &got);
+  EXPECT_EQ(m.state().phase, Phase::kTrainingSkill) << "40 goals, 30 since the best: patience 40, not 10";
+  Window(m, 2, 3800, 5, &started, &got);  // 50 goals, 40 since the best
+  EXPECT_EQ(m.state().phase, Phase::kTask);
+  EXPECT_EQ(m.state().links[1].learned_at_steps, 3800u);
 }
 
 TEST(ChainMachine, SmallRisesBelowTheToleranceDoNotResetConvergence) {

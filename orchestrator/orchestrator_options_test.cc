@@ -24,6 +24,7 @@ TEST(OrchestratorOptions, DefaultsAreValidAndFollowThePaper) {
   EXPECT_EQ(Load("orchestrator: {}", &o), "");
   EXPECT_EQ(o.eps_si, 3.0);
   EXPECT_EQ(o.n_complete_goals, 3'000);
+  EXPECT_EQ(o.primitive_n_complete_goals, 1'000);
   EXPECT_EQ(o.success_tolerance, 0.01);
   EXPECT_EQ(o.detect_every_steps, 10'000);
   EXPECT_EQ(o.detect_budget_steps, 50'000);
@@ -49,6 +50,7 @@ TEST(OrchestratorOptions, InvalidValuesAreRefusedNamingTheKey) {
            {"orchestrator: {detect_every_steps: 300000}",
             "detect_every_steps (300000) must not exceed detect_budget_steps"},
            {"orchestrator: {n_complete_goals: 0}", "orchestrator.n_complete_goals"},
+           {"orchestrator: {primitive_n_complete_goals: -3}", "orchestrator.primitive_n_complete_goals"},
            {"orchestrator: {skill_learning_starts: 500000}",
             "skill_learning_starts (500000) must be below skill_max_steps"},
            {"orchestrator: {task_min_steps: 2000000}", "task_min_steps (2000000) must not exceed task_max_steps"},

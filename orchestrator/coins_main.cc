@@ -48,7 +48,11 @@ void AddBenchCommand(CLI::App& app, int* exit_code) {
         std::string f = e.path().filename().string();
         if (f.rfind("coins-bench-", 0) == 0) known += (known.empty() ? "" : ", ") + f.substr(12);
       }
-      std::cerr << "coins bench: unknown benchmark '" << *name << "' (known: " << known << ")\n";
+      if (known.empty())
+        std::cerr << "coins bench: no benchmarks beside " << SelfDirectory()
+                  << " (this build has none: configure with -DCOINS_BUILD_BENCH=ON)\n";
+      else
+        std::cerr << "coins bench: unknown benchmark '" << *name << "' (known: " << known << ")\n";
       *exit_code = 2;
       return;
     }

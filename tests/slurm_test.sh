@@ -23,6 +23,9 @@ coins=$(realpath -m "${1:-$repo/build}")/bin/coins
 [ -x "$coins" ] || fail "no $coins (build first)"
 steps=20000
 start_time=$SECONDS
+# sanitizer builds run slower: job limits and the partition's time limit scale (CMake passes it)
+scale=${COINS_TEST_TIME_SCALE:-1}
+[[ $scale =~ ^[1-9][0-9]?$ ]] || fail "COINS_TEST_TIME_SCALE '$scale' is not a whole number from 1 to 99"
 
 # a DDS domain of the tests' leases (common/dds/domain_lease.h), held until this script ends
 locks=${COINS_DOMAIN_LOCK_DIR:-/tmp/coins-dds-domains}
@@ -99,7 +102,7 @@ ReturnToService=2
 KillWait=5
 NodeName=n1 NodeHostname=$host NodeAddr=127.0.0.1 Port=$((port + 1)) CPUs=$(nproc) RealMemory=1000
 NodeName=n2 NodeHostname=$host NodeAddr=127.0.0.1 Port=$((port + 2)) CPUs=$(nproc) RealMemory=1000
-PartitionName=coins Nodes=n1,n2 Default=YES MaxTime=10 State=UP
+PartitionName=coins Nodes=n1,n2 Default=YES MaxTime=$((10 * scale)) State=UP
 EOF
 slurmctld -f "$SLURM_CONF" 9>&-
 slurmd -f "$SLURM_CONF" -N n1 9>&-
@@ -114,7 +117,7 @@ echo "slurm_test: cluster up (domain $domain, ports $port..$((port + 4))) after 
 # run_job NAME SECONDS SBATCH_ARGS... -- SCRIPT_ARGS...: submits coins.sbatch, waits for the end
 # (bounded) and checks that the job completed with exit code 0
 run_job() {
-  local name=$1 limit=$(($2 * ${COINS_TEST_TIME_SCALE:-1})) args=()
+  local name=$1 limit=$(($2 * scale)) args=()
   shift 2
   while [ "$1" != -- ]; do args+=("$1") && shift; done
   shift

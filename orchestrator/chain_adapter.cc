@@ -41,11 +41,11 @@ ChainAdapter::ChainAdapter(chain::ChainMachine machine, chain::ChainStore store,
 
 int ChainAdapter::Run() {
   spdlog::info("chain: {} (seq {}, epoch {})", machine_.Describe(), machine_.state().seq, machine_.state().epoch);
-  Persist();
+  Persist(true);
   PublishCommand();
   next_status_ = Clock::now();
   while (!SleepUnlessStopped(kTick)) Tick(Clock::now());
-  Persist();
+  Persist(true);
   PublishStatus();
   io_.heartbeat->Publish("stopping");
   spdlog::info("stopped in phase {} at {} env steps (epoch {})", chain::PhaseName(machine_.state().phase),
@@ -69,7 +69,7 @@ void ChainAdapter::Tick(Clock::time_point now) {
     cutter_.RequestCut();
   }
   Checkpoint(now, v);
-  Persist();
+  Persist(false);
   PublishCommand();
   if (now >= next_status_) {
     PublishStatus();
@@ -93,8 +93,12 @@ void ChainAdapter::Feed(const StatusView& v) {
   }
 }
 
-void ChainAdapter::Persist() {
-  if (saved_ && *saved_ == machine_.state()) return;
+void ChainAdapter::Persist(bool steps_too) {
+  if (saved_) {
+    chain::ChainState unchanged = *saved_;
+    if (!steps_too) unchanged.env_steps = machine_.state().env_steps;
+    if (unchanged == machine_.state()) return;
+  }
   if (Status s = store_.Save(machine_.state()); !s.ok()) {
     spdlog::error("cannot persist the chain state: {}", s.message());
     return;

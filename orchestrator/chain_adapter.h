@@ -41,7 +41,10 @@ class ChainAdapter {
  private:
   void Tick(std::chrono::steady_clock::time_point now);
   void Feed(const StatusView& v);
-  void Persist();
+  // writes chain.json (atomically, fsynced) when the state changed. The env step count alone
+  // moves with every actor report: it is written with the other changes (a transition, a success
+  // window, an epoch) unless `steps_too`, so the loop does not fsync several times a second
+  void Persist(bool steps_too);
   void PublishCommand();
   void Checkpoint(std::chrono::steady_clock::time_point now, const StatusView& v);
   void SendCheckpoint(uint64_t epoch);

@@ -33,8 +33,9 @@ void Summarise(EvalResult* r) {
 
 Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int acting, const EvalOptions& o,
                             const std::function<void(const EvalStep&)>& on_step) {
-  if (acting < 1 || acting > models.contiguous()) return Errorf("evaluate: level {} has no model", acting);
-  const bool task = models.at(acting)->spec().is_task();
+  if (acting < 0 || acting > models.contiguous()) return Errorf("evaluate: level {} has no model", acting);
+  // acting 0, uniform random primitive actions, is evaluated as a task: whole episodes
+  const bool task = acting == 0 || models.at(acting)->spec().is_task();
   int action_dim = 1, goal_dim = 0;
   Actor::RowWidths(env.spec(), &action_dim, &goal_dim);
   HierarchyRunner runner(env.spec(), action_dim, goal_dim, o.seed ^ 0x6576616cULL);
@@ -43,7 +44,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   const size_t dim = size_t(env.spec().state_dim());
   std::vector<float> state(dim), next(dim), action(size_t(env.spec().action.dim));
   EvalResult r;
-  const int skill_level = task ? acting - 1 : acting;
+  const int skill_level = acting == 0 ? 0 : task ? acting - 1 : acting;
   const HierarchyCounters& counts = runner.counters();
   auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] - r.goals_cut_by_win : 0; };
   // a skill is evaluated until its goal (or step) budget is spent, over as many episodes as that

@@ -6,7 +6,8 @@
 // deterministic env can fall into a cycle (the ball bouncing between the same places for ever,
 // blocks left) that one random angle breaks. Skills are always evaluated greedily.
 //
-// Task (the acting level is the task): `episodes` episodes, each from Reset(seed + i) (a fresh
+// Task (the acting level is the task, or acting 0: uniform random primitive actions, the
+// reference a task's return is read against): `episodes` episodes, each from Reset(seed + i) (a fresh
 // board), until the env ends it or max_steps; the return is the sum of env rewards.
 // Skill (the acting level is a skill): its goals drawn at random, until `episodes` goals ended
 // or max_steps in all, over as many episodes as that takes, each from Reset(seed + i); success

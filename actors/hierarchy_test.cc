@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
+#include <vector>
 
 #include "actors/actor.h"
 #include "actors/envs/env.h"
@@ -259,6 +261,35 @@ TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttemptsAndEndedEpisodesGiveTheRetu
   EXPECT_EQ(r->returns.size(), size_t(wins + losses));
   EXPECT_GT(r->returns.size(), 100u);
   EXPECT_TRUE(sums.size() == ended.size() || sums.size() == ended.size() + 1) << sums.size();
+}
+
+// acting 0: uniform random primitive actions, evaluated as a task (the reference of the
+// experiment tables): every episode counts, each return is the sum of its rewards, and the same
+// seed gives the same episodes
+TEST(Evaluate, RandomActionsPlayWholeEpisodesLikeATask) {
+  auto env = envs::MakeEnv("breakout-hard");
+  ASSERT_TRUE(env.ok());
+  EvalOptions o;
+  o.episodes = 40;
+  o.seed = 3;
+  std::vector<double> sums(size_t(o.episodes), 0.0);
+  std::set<float> actions;
+  auto r = Evaluate(**env, HierarchyModels{}, 0, o, [&](const EvalStep& s) {
+    sums[size_t(s.episode)] += s.result->reward;
+    actions.insert(s.action[0]);
+  });
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->returns, sums);
+  EXPECT_EQ(r->episodes_done, o.episodes) << "each ends at a drop or at the target";
+  EXPECT_EQ(actions, (std::set<float>{0, 1, 2, 3}));
+  EXPECT_EQ(r->goals_ended, 0u);
+  // hard: -1 a bounce, -2 a drop, +1 the target; random play mostly drops at once
+  EXPECT_GT(r->return_mean, -4.0);
+  EXPECT_LT(r->return_mean, -1.0);
+  auto again = Evaluate(**env, HierarchyModels{}, 0, o);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->returns, r->returns);
+  EXPECT_FALSE(Evaluate(**env, HierarchyModels{}, -1, o).ok());
 }
 
 }  // namespace

@@ -16,6 +16,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "actors/envs/env.h"
+#include "actors/evaluate.h"
 #include "common/cli_checks.h"
 #include "common/files.h"
 #include "common/process.h"
@@ -229,6 +231,24 @@ double VanillaCurveFinal(const Cell& vanilla) {
   return MeanSd(last).first;
 }
 
+// the reference a variant's returns are read against: uniform random primitive actions over as
+// many episodes as the methods' final evaluations hold together (the same seeds)
+struct Reference {
+  double mean = 0, sd = 0;
+  int64_t episodes = 0;
+};
+
+Result<Reference> RandomPolicyReturn(const ExperimentFlags& f, const std::string& env_name) {
+  auto env = envs::MakeEnv(env_name);
+  if (!env.ok()) return env.status();
+  EvalOptions o;
+  o.episodes = int(f.eval_episodes * f.seeds);
+  o.seed = 1001;
+  auto r = Evaluate(**env, HierarchyModels{}, /*acting=*/0, o);
+  if (!r.ok()) return r.status();
+  return Reference{r->return_mean, r->return_sd, int64_t(r->returns.size())};
+}
+
 // env steps of the first evaluation at or above `level`, per run (nullopt: never)
 json StepsToReach(const Cell& c, double level) {
   json per_run = json::array();
@@ -284,6 +304,8 @@ std::string TableHeader(const ExperimentFlags& f, bool fractions) {
   std::string md = "| variant |";
   size_t columns = 3 * f.methods.size();
   for (const auto& m : f.methods) md += fmt::format(" {} |", m);
+  md += " random actions |";
+  ++columns;
   for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
   for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final (periodic evals) |", m);
   if (fractions) {
@@ -296,7 +318,8 @@ std::string TableHeader(const ExperimentFlags& f, bool fractions) {
   return md + "\n";
 }
 
-Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::map<std::string, Cell>>& cells) {
+Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::map<std::string, Cell>>& cells,
+                   const std::map<std::string, Reference>& random) {
   const Suite& suite = SuiteNamed(f.suite);
   json j = {{"suite", f.suite},
             {"chain", fs::absolute(f.chain).lexically_normal().string()},
@@ -309,7 +332,8 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
     for (const auto& [m, c] : row) fractions = fractions || !c.done.empty() || !c.penalty.empty();
   std::string md = fmt::format(
       "# {}\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: `coins eval` of each run's final "
-      "checkpoint ({} episodes, {}); mean +- sd over seeds.\n\n",
+      "checkpoint ({} episodes, {}); mean +- sd over seeds. Random actions: uniform random primitive actions, the "
+      "return a method must beat to have learned anything (mean +- sd over episodes).\n\n",
       suite.title, f.chain, f.steps, f.seeds, f.eval_episodes,
       suite.eval_explore.empty() ? "the task's evaluation epsilon" : "task explore " + suite.eval_explore);
   md += TableHeader(f, fractions);
@@ -331,6 +355,9 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       md += c.finals.empty() ? " not run |" : fmt::format(" {:.2f} +- {:.2f} |", c.mean, c.sd);
       if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
     }
+    const Reference& ref = random.at(v);
+    j["variants"][v]["random_actions"] = {{"mean", ref.mean}, {"sd", ref.sd}, {"episodes", ref.episodes}};
+    md += fmt::format(" {:.2f} +- {:.2f} |", ref.mean, ref.sd);
     for (const auto& m : f.methods) {
       const auto p = suite.paper.count(v) && suite.paper.at(v).count(m) ? suite.paper.at(v).at(m) : NAN;
       j["variants"][v]["paper"][m] = std::isnan(p) ? json(nullptr) : json(p);
@@ -421,7 +448,13 @@ Status RunExperiment(const ExperimentFlags& flags) {
                   << std::endl;
         Add(c, *result);
       }
-  COINS_RETURN_IF_ERROR(WriteTables(f, cells));
+  std::map<std::string, Reference> random;
+  for (const auto& v : f.variants) {
+    auto ref = RandomPolicyReturn(f, SuiteNamed(f.suite).env_prefix + v);
+    if (!ref.ok()) return ref.status();
+    random[v] = *ref;
+  }
+  COINS_RETURN_IF_ERROR(WriteTables(f, cells, random));
   for (const auto& v : f.variants)
     if (Status s = WriteCurves(f, v); !s.ok()) std::cerr << "coins experiment: " << s.message() << "\n";
   if (auto md = ReadFileText((fs::path(f.out) / (f.suite + ".md")).string()); md.ok()) std::cout << *md << "\n";

@@ -16,9 +16,10 @@
 // experiment continues where it stopped. The final eval return of a run is `coins eval` of its
 // final checkpoint (--eval-episodes, a fixed seed per run; pushing: greedy); its curve is the
 // learner's periodic evaluations (eval.csv). Written to OUT: SUITE.json and SUITE.md (mean +- sd
-// over seeds beside the paper's numbers, the env steps each method's periodic evaluations needed
-// to reach vanilla's last one, and where the env has them the fraction of episodes reaching the goal and of steps in
-// penalty regions), and curves-VARIANT.png.
+// over seeds beside the paper's numbers and the return of uniform random actions on the same
+// episodes' seeds (eval-episodes x seeds episodes; what "learned nothing" scores), the env steps each method's periodic
+// evaluations needed to reach vanilla's last one, and where the env has them the fraction of episodes reaching the goal
+// and of steps in penalty regions), and curves-VARIANT.png.
 #pragma once
 
 #include <cmath>

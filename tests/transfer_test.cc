@@ -349,6 +349,12 @@ TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
     EXPECT_DOUBLE_EQ(cell["runs"][0].get<double>(), final_eval["return_mean"].get<double>()) << m;
   }
   EXPECT_DOUBLE_EQ(t["variants"]["single"]["paper"]["coins"].get<double>(), -3.2);
+  // the random-actions reference: 20 episodes per seed, mostly a drop (-10) after a bounce or two
+  const nlohmann::json& random = t["variants"]["single"]["random_actions"];
+  EXPECT_EQ(random["episodes"], 20);
+  EXPECT_LT(random["mean"].get<double>(), -7.0) << random;
+  EXPECT_GT(random["mean"].get<double>(), -12.0) << random;
+  EXPECT_GT(random["sd"].get<double>(), 0.0) << "some episodes bounce the ball: " << random;
   // a method's steps to vanilla's final are counted on one measurement: the periodic evaluations
   // (a run this short has none: its final evaluation stands in)
   auto vanilla = ReadRunResult((out / "single" / "vanilla-seed1").string());
@@ -424,6 +430,11 @@ TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
   ASSERT_TRUE(read.ok()) << read.status().message();
   const std::string& md = read.value();
   EXPECT_NE(md.find("| pushing | not run |"), std::string::npos) << md;
+  // random actions never bring the block to the goal: -0.1 a step or worse for 300 steps
+  const nlohmann::json& random = t["variants"]["pushing"]["random_actions"];
+  EXPECT_EQ(random["episodes"], 4);
+  EXPECT_LE(random["mean"].get<double>(), -30.0 + 1e-3) << random;
+  EXPECT_NE(md.find("random actions"), std::string::npos) << md;
   EXPECT_NE(md.find("episodes reaching the goal"), std::string::npos) << md;
 }
 

@@ -46,7 +46,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   EvalResult r;
   const int skill_level = acting == 0 ? 0 : task ? acting - 1 : acting;
   const HierarchyCounters& counts = runner.counters();
-  auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] - r.goals_cut_by_win : 0; };
+  auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] : 0; };
   // a skill is evaluated until its goal (or step) budget is spent, over as many episodes as that
   // takes; each starts from a fresh Reset, and those the env ended count their returns
   bool budget_spent = false;
@@ -62,14 +62,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       const auto t1 = Clock::now();
       COINS_RETURN_IF_ERROR(env.Step(action, next, &sr).WithContext("evaluate"));
       const auto t2 = Clock::now();
-      const uint64_t ended_before = ended(),
-                     interacted_before = skill_level >= 1 ? counts.goals_interacted[skill_level - 1] : 0;
       runner.Observe(state, action, next, sr.reward, sr.done || sr.truncated, sr.truncated, sr.interactions, &rows);
-      // a goal that an episode end with a positive reward cut before its interaction (the last
-      // block broken, the board cleared) had no chance to be met: not an attempt
-      if (skill_level >= 1 && sr.done && !sr.truncated && sr.reward > 0 && ended() > ended_before &&
-          counts.goals_interacted[skill_level - 1] == interacted_before)
-        ++r.goals_cut_by_win;
       r.control_seconds += Seconds(t0, Clock::now());
       r.env_seconds += Seconds(t1, t2);
       if (on_step) on_step({ep, state, action, next, &sr});
@@ -87,6 +80,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   }
   if (skill_level >= 1) {
     r.goals_ended = ended();
+    r.goals_cut_by_win = counts.goals_cut_by_win[skill_level - 1];
     r.goals_reached = counts.goals_reached[skill_level - 1];
     r.goals_interacted = counts.goals_interacted[skill_level - 1];
     r.success = r.goals_ended ? double(r.goals_reached) / double(r.goals_ended) : 0.0;

@@ -216,12 +216,16 @@ void HierarchyRunner::Observe(std::span<const float> state, std::span<const floa
   // attempts when they ended on their own (reached, an interaction, the timeout); a goal cut by
   // the episode's end counts as a failed attempt only for a level whose goals are attempts at
   // an interaction (the ball skill that lets the ball drop), not for one whose target simply
-  // stopped (the paddle when the ball drops); a goal its parent replaced is not counted
+  // stopped (the paddle when the ball drops), and not when the episode ended with a positive
+  // reward (the board cleared: the ball never came back); a goal its parent replaced is not counted
+  const bool won = done && !truncated && reward > 0;
   for (int L = 1; L <= acting_; ++L) {
     const Ends& e = ends_[size_t(L) - 1];
     LevelState& ls = levels_[size_t(L) - 1];
     if (!is_skill(L) || !ls.has_goal || !e.goal_end) continue;
-    const bool attempt = e.natural || (done && models_->at(L)->spec().terminate_on_interaction);
+    const bool cut = !e.natural && done && models_->at(L)->spec().terminate_on_interaction;
+    const bool attempt = e.natural || (cut && !won);
+    counters_.goals_cut_by_win[L - 1] += cut && won;
     counters_.goals_ended[L - 1] += attempt;
     counters_.goals_reached[L - 1] += attempt && e.success;
     counters_.goals_interacted[L - 1] += attempt && e.interaction;

@@ -64,6 +64,10 @@ struct HierarchyCounters {
   uint64_t goals_ended[8] = {}, goals_reached[8] = {};
   // of the attempts, those ended by a detected link interaction (a bounce, reached or not)
   uint64_t goals_interacted[8] = {};
+  // goals of a level whose goals are interactions that an episode end with a positive reward
+  // cut before any interaction (Breakout: the ball skill's goal when the last block breaks): no
+  // chance to be met, so not attempts (not in goals_ended)
+  uint64_t goals_cut_by_win[8] = {};
   // child goals a level chose outside the child's goal space, clipped to it (per child level)
   uint64_t goals_clipped[8] = {};
   // the top acting link's detector against the env's labels

@@ -222,6 +222,34 @@ TEST(Hierarchy, EvaluationEpsilonRandomisesOnlyTheActingLevel) {
   }
 }
 
+// the same rule on the training side (an actor exploring, whose counters feed the chain's
+// success windows): a ball goal cut by the block breaking is not an attempt, one cut by a drop is
+TEST(Hierarchy, TrainingCountersLeaveOutGoalsCutByAWonEpisodeEnd) {
+  auto env = envs::MakeEnv("breakout-single");
+  ASSERT_TRUE(env.ok()) << env.status().message();
+  const envs::EnvSpec& spec = (*env)->spec();
+  policy::LevelSpec ball = Ball(spec);
+  ball.require_interaction = ball.terminate_on_interaction = true;
+  const HierarchyModels models = Models({Paddle(spec), ball});
+  int action_dim, goal_dim;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  HierarchyRunner runner(spec, action_dim, goal_dim, 11);
+  runner.Configure(&models, 2, /*explore=*/true);
+  const Recorder rec = RunSteps(**env, runner, 60000);
+  int wins = 0, losses = 0;
+  for (const auto& row : rec.rows)
+    if (row.stream == 0 && (row.flags & msg::ROW_DONE)) (row.reward > 0 ? wins : losses)++;
+  ASSERT_GT(wins, 0) << "random play breaks the single block now and then";
+  ASSERT_GT(losses, 0);
+  const HierarchyCounters& c = runner.counters();
+  EXPECT_EQ(c.goals_cut_by_win[1], uint64_t(wins)) << "no detector: no goal ends by a bounce before a win";
+  EXPECT_EQ(c.goals_interacted[1], 0u);
+  // every episode's end cuts the ball goal in force; the drops' are failed attempts, the others
+  // end by the timeout
+  EXPECT_GE(c.goals_ended[1], uint64_t(losses));
+  EXPECT_EQ(c.goals_reached[1], 0u);
+}
+
 // a skill evaluation does not count as failed the goals that an episode end with a positive
 // reward cut (breakout-single ends when its block breaks): those goals had no chance; a goal
 // cut by a drop (-10) still counts, as a goal without its bounce. Its returns are the episodes'

@@ -84,5 +84,31 @@ TEST(DetectJob, AFailedRoundIsNotRunAgainForTheSameCommand) {
   EXPECT_EQ(r.scores().size(), 1u);
 }
 
+// a detect round holds Work for the whole training of its models: the progress tick is called
+// all through it (every 64 Adam steps), so the learner process keeps its status, checkpoint
+// acknowledgements and heartbeat going (before: nothing for the whole round)
+TEST(DetectJob, TheProgressTickRunsAllThroughTheModelsTraining) {
+  LocalRunOptions o = SmallDetector();
+  o.learner.detector.passive_steps = o.learner.detector.passive_hard_steps = 256;
+  o.learner.detector.active_steps = 512;
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  ASSERT_TRUE(r.Command(Collect(2000)).ok());
+  ASSERT_TRUE(r.StepActors(100000).ok());
+  int ticks = 0, during_detect = 0;
+  r.learner().SetProgressTick([&] {
+    ++ticks;
+    during_detect += r.learner().status().job() == "detect";
+  });
+  ASSERT_TRUE(r.Command(Detect(2, 2000, {"Paddle"})).ok());
+  auto worked = r.LearnerWork(1);
+  ASSERT_TRUE(worked.ok()) << worked.status().message();
+  ASSERT_EQ(r.scores().size(), 1u);
+  // 256 + 256 + 512 Adam steps: 16 checks inside the training alone
+  EXPECT_GE(ticks, 16);
+  EXPECT_EQ(during_detect, ticks) << "the status says what the learner is doing while it ticks";
+}
+
 }  // namespace
 }  // namespace coins

@@ -63,6 +63,7 @@ DetectRoundOptions LearnerCore::RoundOptions() const {
   o.holdout = options_.detect_holdout;
   o.detector = options_.detector;
   o.detector.seed = seed_ + 17;
+  o.tick = progress_tick_;
   return o;
 }
 

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -55,6 +56,10 @@ class LearnerCore {
   Result<bool> Work(SampleSource* source, uint64_t env_steps, Outputs* out);
 
   msg::LearnerStatus status() const { return status_; }
+  // called every few seconds of a long piece of work inside Work (a detect round's model
+  // training, a detector retrain), so that the caller can keep publishing status() and its
+  // heartbeat while Work has not returned; it must not call back into this object but status()
+  void SetProgressTick(std::function<void()> tick) { progress_tick_ = std::move(tick); }
   // the newest published weights of every name (to republish after a restart)
   std::vector<msg::PolicyWeights> Latest() const;
   uint64_t command_seq() const { return command_.seq(); }
@@ -151,6 +156,7 @@ class LearnerCore {
   std::deque<double> lags_;
   double loss_ = 0;
   msg::LearnerStatus status_;
+  std::function<void()> progress_tick_ = [] {};
   SkillSnapshots snapshots_;                 // of the skill being trained
   std::optional<SkillSelection> selection_;  // of a skill whose training ended
   std::optional<SkillSelection> chosen_;     // the last choice made

@@ -178,6 +178,9 @@ void LearnerProcess::PublishStatus(dds::Heartbeat& heartbeat) {
 }
 
 int LearnerProcess::Run(dds::Heartbeat& heartbeat) {
+  // a detect round or a detector retrain holds Work for seconds (minutes at the default budgets
+  // on a slow machine): status, checkpoint acknowledgements and the heartbeat keep going
+  core_->SetProgressTick([this, &heartbeat] { PublishStatus(heartbeat); });
   while (!StopRequested()) {
     TakeCommands();
     TakeControl();

@@ -100,8 +100,10 @@ Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const e
     auto data = SamplePairData(source, *space, std::max<int64_t>(wanted, 2), o);
     if (!data.ok()) return data.status().WithContext(source_factor + "->" + target);
     const auto start = std::chrono::steady_clock::now();
-    auto det = detector::PairDetector::Train(space->sub, data->train, source_factor, target, o.detector,
-                                             [] { return StopRequested(); });
+    auto det = detector::PairDetector::Train(space->sub, data->train, source_factor, target, o.detector, [&o] {
+      o.tick();
+      return StopRequested();
+    });
     if (!det.ok()) return det.status().WithContext(source_factor + "->" + target);
     o.tick();
     const detector::PairScores scores = det->Score(data->held_out);

@@ -26,7 +26,9 @@ struct DetectRoundOptions {
   double holdout = 0.2;
   uint32_t level_mask = 0b11;  // primitive rows: random steps and first-skill steps
   detector::DetectorOptions detector;
-  std::function<void()> tick = [] {};  // called between pieces of work
+  // called between pieces of work and every 64 Adam steps of the models' training (a caller
+  // keeps its status and heartbeat going from it)
+  std::function<void()> tick = [] {};
 };
 
 struct DetectedTarget {

@@ -44,7 +44,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   const size_t dim = size_t(env.spec().state_dim());
   std::vector<float> state(dim), next(dim), action(size_t(env.spec().action.dim));
   EvalResult r;
-  const int skill_level = acting == 0 ? 0 : task ? acting - 1 : acting;
+  const int skill_level = task ? acting - 1 : acting;  // < 1: no skill's goals to count
   const HierarchyCounters& counts = runner.counters();
   auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] : 0; };
   // a skill is evaluated until its goal (or step) budget is spent, over as many episodes as that

@@ -232,7 +232,7 @@ double VanillaCurveFinal(const Cell& vanilla) {
 }
 
 // the reference a variant's returns are read against: uniform random primitive actions over as
-// many episodes as the methods' final evaluations hold together (the same seeds)
+// many episodes as the methods' final evaluations hold together, from the first of their seeds
 struct Reference {
   double mean = 0, sd = 0;
   int64_t episodes = 0;

@@ -40,6 +40,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   Actor::RowWidths(env.spec(), &action_dim, &goal_dim);
   HierarchyRunner runner(env.spec(), action_dim, goal_dim, o.seed ^ 0x6576616cULL);
   runner.Configure(&models, acting, /*explore=*/false, task ? o.task_explore : 0.0f);
+  runner.SetGoalSampleRatio(o.goal_sample_ratio);
   DiscardRows rows;
   const size_t dim = size_t(env.spec().state_dim());
   std::vector<float> state(dim), next(dim), action(size_t(env.spec().action.dim));

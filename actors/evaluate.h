@@ -32,6 +32,8 @@ struct EvalOptions {
   int64_t max_steps = 20000;  // per task episode; in all for a skill
   uint64_t seed = 1;
   float task_explore = 0.0f;  // epsilon of a task level (see above)
+  // a skill's random goals: drawn with this sample ratio (policy::RandomGoal); negative: its own
+  float goal_sample_ratio = -1.0f;
 };
 
 struct EvalResult {

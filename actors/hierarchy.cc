@@ -113,7 +113,9 @@ void HierarchyRunner::Decide(std::span<const float> state, std::span<float> env_
   for (int L = acting_; L >= 1; --L) {
     LevelState& ls = levels_[size_t(L) - 1];
     if (L == acting_ && is_skill(L) && !ls.has_goal) {
-      policy::RandomGoal(models_->at(L)->spec().goal, &rng_, ls.goal.data());
+      const policy::GoalSpace& g = models_->at(L)->spec().goal;
+      policy::RandomGoal(g, goal_sample_ratio_ >= 0 ? goal_sample_ratio_ : g.sample_ratio, state.data(), &rng_,
+                         ls.goal.data());
       ls.has_goal = true;
       ls.goal_steps = 0;
     }

@@ -84,6 +84,9 @@ class HierarchyRunner {
   // the acting level then explores with `eval_explore` (a task's evaluation epsilon)
   void Configure(const HierarchyModels* models, int acting, bool explore, float eval_explore = 0.0f);
   int acting() const { return acting_; }
+  // the acting skill's random continuous goals drawn with this sample ratio instead of its
+  // spec's (policy::RandomGoal; a skill evaluated on other goals); negative: the spec's
+  void SetGoalSampleRatio(float ratio) { goal_sample_ratio_ = ratio; }
 
   // opens new segments in every active stream at `state` (ROW_SEGMENT_START rows, with
   // ROW_EPISODE_START at an episode's first state); goals and decisions start afresh
@@ -132,6 +135,7 @@ class HierarchyRunner {
   int acting_ = 0;
   bool explore_ = true;
   float eval_explore_ = 0.0f;
+  float goal_sample_ratio_ = -1.0f;
   std::vector<LevelState> levels_;  // index level - 1
   std::vector<Ends> ends_;
   std::vector<float> features_, obs_, achieved_, full_goal_, zero_action_, row_action_;

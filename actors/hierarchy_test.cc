@@ -142,6 +142,48 @@ TEST(Hierarchy, FirstSkillRowsMarkReachedAndTimedOutGoals) {
   EXPECT_EQ(runner.counters().goals_ended[0], reached + timed_out);
 }
 
+// the largest distance between a new goal and the paddle's x where it was drawn, over `steps`
+float FarthestNewGoal(envs::Env& env, HierarchyRunner& runner, int steps, int* goals) {
+  const int px = env.spec().factor_offset(env.spec().factor_index("Paddle")) + 1;
+  Recorder rec;
+  std::vector<float> state(size_t(env.spec().state_dim())), next(state.size()), action(1);
+  env.Reset(3, state);
+  runner.StartEpisode(state, &rec);
+  float farthest = 0, last_goal = -1;
+  *goals = 0;
+  for (int t = 0; t < steps; ++t) {
+    runner.Decide(state, action);
+    const float goal = runner.goal(1)[0];
+    if (goal != last_goal) farthest = std::max(farthest, std::abs(goal - state[size_t(px)])), ++*goals;
+    last_goal = goal;
+    envs::StepResult r;
+    EXPECT_TRUE(env.Step(action, next, &r).ok());
+    runner.Observe(state, action, next, r.reward, r.done || r.truncated, r.truncated, r.interactions, &rec);
+    std::swap(state, next);
+    if (r.done || r.truncated) {
+      env.ResetNext(state);
+      runner.StartEpisode(state, &rec);
+    }
+  }
+  return farthest;
+}
+
+TEST(Hierarchy, RandomGoalsWithASampleRatioAreDrawnNearTheTarget) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  policy::LevelSpec paddle = Paddle(spec);
+  paddle.goal.sample_ratio = 0.1f;  // within 6.8 px of the paddle (range 68)
+  const HierarchyModels models = Models({paddle});
+  int action_dim, goal_dim, goals = 0;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  HierarchyRunner runner(spec, action_dim, goal_dim, 5);
+  runner.Configure(&models, 1, true);
+  EXPECT_LE(FarthestNewGoal(**env, runner, 3000, &goals), 6.8f + 1e-3f);
+  EXPECT_GT(goals, 100);
+  runner.SetGoalSampleRatio(0.0f);  // evaluation's override: anywhere in [7.5, 75.5]
+  EXPECT_GT(FarthestNewGoal(**env, runner, 3000, &goals), 30.0f);
+}
+
 TEST(Hierarchy, SecondLevelDecidesEveryThreeStepsAndWritesItsOwnStream) {
   auto env = envs::MakeEnv("breakout");
   const envs::EnvSpec& spec = (*env)->spec();

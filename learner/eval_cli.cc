@@ -121,6 +121,9 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                       {"steps_per_s", r.control_seconds > 0 ? r.steps / r.control_seconds : 0.0},
                       {"env_steps_per_s", r.env_seconds > 0 ? r.steps / r.env_seconds : 0.0},
                       {"explore", spec.is_task() ? f.explore : 0.0}};
+  const bool continuous_skill = !spec.is_task() && spec.goal.kind == policy::GoalKind::kContinuous;
+  const double ratio = f.goal_sample_ratio >= 0 ? f.goal_sample_ratio : spec.goal.sample_ratio;
+  j["goal_sample_ratio"] = continuous_skill ? nlohmann::json(ratio) : nlohmann::json(nullptr);
   if (spec.is_task()) j["task_weights"] = task_weights;
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
@@ -171,6 +174,11 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                                  ? fmt::format(" ({} more cut by a won episode end, not counted)", r.goals_cut_by_win)
                                  : std::string())
               << "\n";
+  if (continuous_skill)
+    std::cout << (ratio > 0 ? fmt::format("  random goals within {} of the goal range around the {}{}", ratio,
+                                          spec.goal.factor, f.goal_sample_ratio >= 0 ? " (--goal-sample-ratio)" : "")
+                            : fmt::format("  random goals anywhere in the goal space"))
+              << "\n";
   if (skill.require_interaction)
     std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
                              100.0 * r.hit_rate, 100.0 * r.accuracy)
@@ -211,7 +219,8 @@ Status RunEval(const EvalFlags& f) {
 
   EvalRecorder recorder(f, **env);
   COINS_RETURN_IF_ERROR(recorder.Open());
-  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore)};
+  if (f.goal_sample_ratio >= 0 && f.skill.empty()) return Errorf("--goal-sample-ratio needs --skill");
+  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore), float(f.goal_sample_ratio)};
   auto r = Evaluate(**env, **models, level, eo, [&](const EvalStep& s) { recorder.OnStep(s); });
   if (!r.ok()) return r.status();
   COINS_RETURN_IF_ERROR(recorder.Finish());
@@ -234,6 +243,10 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
       ->check(CLI::Range(int64_t(1), int64_t(1) << 30));
   cmd->add_option("--explore", f->explore, "the task level's epsilon (skills act greedily); 0: greedy")
       ->check(cli::Finite(0.0, 1.0));
+  cmd->add_option("--goal-sample-ratio", f->goal_sample_ratio,
+                  "--skill with continuous goals: draw them within this fraction of the goal range around the target "
+                  "(0: anywhere; default: as the skill trained)")
+      ->check(CLI::Range(0.0, 10.0));
   cmd->add_option("--epoch", f->epoch, "checkpoint epoch (default: the newest)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--out", f->out, "write the rollout as JSON lines (the `coins env rollout` format)");
   cmd->add_option("--gif", f->gif, "write the first --gif-steps steps as a GIF");

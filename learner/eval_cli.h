@@ -28,7 +28,8 @@ struct EvalFlags {
   std::string gif;
   int gif_steps = 1500;  // frames (env steps) in the GIF
   bool json = false;
-  bool last = false;  // the task's newest weights instead of its best-evaluated ones
+  bool last = false;              // the task's newest weights instead of its best-evaluated ones
+  double goal_sample_ratio = -1;  // --skill: random goals drawn with this sample ratio (negative: the skill's own)
 };
 
 // adds `eval`; its exit code goes to *exit_code

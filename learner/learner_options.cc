@@ -31,6 +31,9 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.Int(p + "decision_period", decision_period, 0, 1 << 20, "env steps per action at most (0: child's goal)");
   v.FloatList(p + "child_offsets", child_offsets, "continuous 1-d child goals as discrete offsets (dqn)");
   v.Float(p + "child_ratio", child_ratio, 1e-6, 10, "child goal offsets scale, fraction of the range");
+  if (p != "task_")
+    v.Float(p + "goal_sample_ratio", goal_sample_ratio, 0, 10,
+            "random continuous goals within this fraction of the range around the target (0: anywhere)");
   v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
   v.String(p + "interaction_ends_goal", interaction_ends_goal, {"rare", "never"},
            "rare: a rare link's interaction ends its goal (a bounce) | never: reached or timed out (a push)");

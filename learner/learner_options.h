@@ -40,7 +40,10 @@ struct LevelTrainOptions {
   int64_t decision_period = 0;        // env steps per action at most (0: until the child's goal ends)
   std::vector<double> child_offsets;  // continuous 1-d child goals as discrete offsets (dqn); empty: ddpg
   double child_ratio = 0.15;          // child goal = child value + offset * ratio * range
-  int64_t publish_every = 50;         // updates between weight publications
+  // continuous goals of the level drawn at random (training, evaluation) within this fraction of
+  // the goal range around the target's value (0: anywhere in the goal space)
+  double goal_sample_ratio = 0;
+  int64_t publish_every = 50;  // updates between weight publications
   // a goal of a link whose interactions are rare ends at any detected interaction ("rare": a
   // bounce decides the ball's angle, the attempt is over), or only when reached or timed out
   // ("never": a push is one of many that bring the block to its goal)

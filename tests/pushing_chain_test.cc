@@ -105,6 +105,19 @@ TEST(PushingChain, AcceptsActionToGripperAndTrainsTheGripperSkillAcrossProcesses
   // the control step's speed: the env's step alone is a part of it
   EXPECT_GT(j["steps_per_s"].get<double>(), 0.0) << eval.output;
   EXPECT_GT(j["env_steps_per_s"].get<double>(), j["steps_per_s"].get<double>()) << eval.output;
+  EXPECT_EQ(j["goal_sample_ratio"], 0.0) << eval.output;  // pushing.yaml: gripper goals anywhere
+  // the same skill on goals near the gripper (what its parent asks), and the flag refused without --skill
+  auto near = RunCommand(Bin("coins") + " eval " + run.string() +
+                         " --skill Gripper --episodes 100 --seed 3 --goal-sample-ratio 0.05 --json");
+  ASSERT_EQ(near.code, 0) << near.output;
+  const auto jn = nlohmann::json::parse(near.output.substr(near.output.find('{')), nullptr, false);
+  ASSERT_TRUE(jn.is_object()) << near.output;
+  EXPECT_DOUBLE_EQ(jn["goal_sample_ratio"].get<double>(), 0.05);
+  EXPECT_GE(jn["success"].get<double>(), 0.9) << near.output;
+  EXPECT_LT(jn["steps"].get<double>(), j["steps"].get<double>()) << "near goals are reached sooner";
+  auto no_skill = RunCommand(Bin("coins") + " eval " + run.string() + " --goal-sample-ratio 0.05");
+  EXPECT_NE(no_skill.code, 0);
+  EXPECT_NE(no_skill.output.find("--goal-sample-ratio needs --skill"), std::string::npos) << no_skill.output;
 
   // resumed, the run goes on training the same skill from its newest complete epoch
   const int64_t stopped_at = GripperUpdates(run);

@@ -38,14 +38,22 @@ bool ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* a
   return clipped;
 }
 
-void RandomGoal(const GoalSpace& goal, std::mt19937_64* rng, float* out) {
+void RandomGoal(const GoalSpace& goal, float sample_ratio, const float* state, std::mt19937_64* rng, float* out) {
   if (goal.kind == GoalKind::kDiscrete) {
     const size_t k = std::uniform_int_distribution<size_t>(0, goal.goals.size() - 1)(*rng);
     std::copy(goal.goals[k].begin(), goal.goals[k].end(), out);
     return;
   }
-  for (int i = 0; i < goal.dim(); ++i)
-    out[i] = std::uniform_real_distribution<float>(goal.low[size_t(i)], goal.high[size_t(i)])(*rng);
+  for (int i = 0; i < goal.dim(); ++i) {
+    float lo = goal.low[size_t(i)], hi = goal.high[size_t(i)];
+    if (sample_ratio > 0) {
+      const float now = std::clamp(state[goal.offset + goal.masked[size_t(i)]], lo, hi);
+      const float reach = sample_ratio * (hi - lo);
+      lo = std::max(lo, now - reach);
+      hi = std::min(hi, now + reach);
+    }
+    out[i] = std::uniform_real_distribution<float>(lo, hi)(*rng);
+  }
 }
 
 void RandomAction(const LevelSpec& level, std::mt19937_64* rng, float* action) {

@@ -19,8 +19,11 @@ void ToPrimitiveAction(const LevelSpec& level, const float* action, float* env_a
 bool ToChildGoal(const LevelSpec& parent, const GoalSpace& child, const float* action, const float* state,
                  float* child_goal);
 
-// a uniformly random goal of the space: one of the discrete goals, or uniform within the bounds
-void RandomGoal(const GoalSpace& goal, std::mt19937_64* rng, float* out);
+// a uniformly random goal of the space: one of the discrete goals; continuous, uniform within the
+// bounds, or with sample_ratio > 0 (a skill's own is goal.sample_ratio) uniform within
+// sample_ratio * (high - low) of the target's value in `state` (the full state; unread
+// otherwise), clipped to the bounds
+void RandomGoal(const GoalSpace& goal, float sample_ratio, const float* state, std::mt19937_64* rng, float* out);
 
 // a uniformly random action of the level (before any weights exist)
 void RandomAction(const LevelSpec& level, std::mt19937_64* rng, float* action);

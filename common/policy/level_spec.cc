@@ -100,6 +100,8 @@ Status LevelSpec::Validate() const {
         (goal.low.size() != goal.masked.size() || goal.high.size() != goal.masked.size()))
       return bad("continuous goal bounds do not match the mask");
     if (!(goal.epsilon >= 0) || !std::isfinite(goal.epsilon)) return bad("goal epsilon must be finite and >= 0");
+    if (!(goal.sample_ratio >= 0) || !std::isfinite(goal.sample_ratio))
+      return bad("goal sample_ratio must be finite and >= 0");
   }
   if (discrete_actions() && num_actions < 2) return bad("a discrete level needs at least 2 actions");
   if (action_kind == ActionKind::kChildOffsets && child_offsets.size() != size_t(num_actions))
@@ -136,6 +138,7 @@ nlohmann::json ToJson(const LevelSpec& s) {
                {"low", s.goal.low},
                {"high", s.goal.high},
                {"epsilon", s.goal.epsilon},
+               {"sample_ratio", s.goal.sample_ratio},
                {"norm", s.goal.norm == GoalNorm::kL1 ? "l1" : "linf"}};
   json rel = json::array();
   for (const auto& [a, b] : s.relative) rel.push_back({a, b});
@@ -195,6 +198,7 @@ LevelSpec ReadSpec(const nlohmann::json& j) {
   s.goal.low = g.at("low").get<std::vector<float>>();
   s.goal.high = g.at("high").get<std::vector<float>>();
   s.goal.epsilon = g.at("epsilon").get<float>();
+  s.goal.sample_ratio = g.value("sample_ratio", 0.0f);  // absent in weights written before it existed
   s.goal.norm = g.at("norm").get<std::string>() == "l1" ? GoalNorm::kL1 : GoalNorm::kLinf;
   s.name = j.at("name").get<std::string>();
   s.level = j.at("level").get<int>();

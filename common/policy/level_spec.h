@@ -43,6 +43,9 @@ struct GoalSpace {
   std::vector<float> low, high;           // continuous: bounds of each masked feature
   float epsilon = 0.0f;                   // reached when the distance <= epsilon (env units)
   GoalNorm norm = GoalNorm::kLinf;
+  // continuous: random goals (training, evaluation) lie within sample_ratio * (high - low) of
+  // the target's value when drawn, as a parent's relative goals do; 0: uniform within the bounds
+  float sample_ratio = 0.0f;
 
   int dim() const { return int(masked.size()); }
   // the masked values of the target in a full state

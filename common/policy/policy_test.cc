@@ -52,6 +52,14 @@ TEST(LevelSpec, JsonRoundTripAndValidation) {
   ASSERT_TRUE(back.ok()) << back.status().message();
   EXPECT_EQ(ToJson(*back), ToJson(s));
   EXPECT_EQ(back->obs_dim(), 4 + 1 + 1);
+  LevelSpec near = s;  // the goal sample ratio travels; weights written before it read as 0
+  near.goal.sample_ratio = 0.2f;
+  EXPECT_FLOAT_EQ(ParseLevelSpec(ToJson(near).dump())->goal.sample_ratio, 0.2f);
+  nlohmann::json older = ToJson(near);
+  older["goal"].erase("sample_ratio");
+  EXPECT_EQ(ParseLevelSpec(older.dump())->goal.sample_ratio, 0.0f);
+  near.goal.sample_ratio = -1;
+  EXPECT_NE(near.Validate().message().find("sample_ratio"), std::string::npos);
   LevelSpec bad = s;
   bad.child_offsets = {0, 1};
   EXPECT_NE(bad.Validate().message().find("child_offsets"), std::string::npos);
@@ -108,10 +116,40 @@ TEST(Actions, ChildGoalsFromOffsetsDiscreteAndContinuous) {
   std::mt19937_64 rng(1);
   child.kind = GoalKind::kContinuous;
   for (int i = 0; i < 100; ++i) {
-    RandomGoal(child, &rng, goal);
+    RandomGoal(child, 0.0f, state, &rng, goal);
     ASSERT_GE(goal[0], 10.0f);
     ASSERT_LE(goal[0], 50.0f);
   }
+}
+
+TEST(Actions, RandomGoalsNearTheTargetWithASampleRatio) {
+  GoalSpace g;
+  g.kind = GoalKind::kContinuous;
+  g.offset = 1;
+  g.masked = {0, 2};  // the target's features 0 and 2: state[1] and state[3]
+  g.low = {10, -1};
+  g.high = {50, 1};
+  g.sample_ratio = 0.1f;  // within 4 of x, 0.2 of the second
+  const float state[4] = {0, 40, 0, 0.95f};
+  std::mt19937_64 rng(7);
+  float goal[2];
+  float x_min = 1e9f, x_max = -1e9f, y_min = 1e9f, y_max = -1e9f;
+  for (int i = 0; i < 2000; ++i) {
+    RandomGoal(g, g.sample_ratio, state, &rng, goal);
+    x_min = std::min(x_min, goal[0]), x_max = std::max(x_max, goal[0]);
+    y_min = std::min(y_min, goal[1]), y_max = std::max(y_max, goal[1]);
+  }
+  EXPECT_GE(x_min, 36.0f);
+  EXPECT_LE(x_max, 44.0f);
+  EXPECT_LT(x_min, 36.2f);  // the whole window is used
+  EXPECT_GT(x_max, 43.8f);
+  EXPECT_GE(y_min, 0.75f);  // 0.95 - 0.2, and clipped to the bound 1 above
+  EXPECT_LE(y_max, 1.0f);
+  EXPECT_GT(y_max, 0.99f);
+  const float outside[4] = {0, 90, 0, 0};  // a target outside the bounds: the window starts at the bound
+  RandomGoal(g, g.sample_ratio, outside, &rng, goal);
+  EXPECT_GE(goal[0], 46.0f);
+  EXPECT_LE(goal[0], 50.0f);
 }
 
 TEST(PolicyNet, GreedyActionIsTheArgmaxAndBlobsRoundTrip) {

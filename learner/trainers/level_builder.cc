@@ -136,6 +136,7 @@ Status SetGoalSpace(const envs::EnvSpec& env, const msg::LinkSpec& link, const L
   s->goal.high.assign(set.begin() + d, set.end());
   s->goal.epsilon = float(o.goal_epsilon) * half;
   s->goal.norm = GoalNorm::kLinf;
+  s->goal.sample_ratio = float(o.goal_sample_ratio);
   return Status::Ok();
 }
 

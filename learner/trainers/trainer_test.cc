@@ -42,6 +42,10 @@ TEST(LevelBuilder, BreakoutChainLevels) {
   EXPECT_EQ(paddle->num_actions, 4);
   EXPECT_FALSE(paddle->terminate_on_interaction);  // the action moves the paddle one step in two
   EXPECT_NEAR(paddle->goal.epsilon, 1.0f, 0.02f);  // 1 px
+  EXPECT_EQ(paddle->goal.sample_ratio, 0.0f);      // default: random goals anywhere
+  LevelTrainOptions near = o.primitive;
+  near.goal_sample_ratio = 0.1;
+  EXPECT_FLOAT_EQ(BuildSkillSpec(b.spec, b.paddle, 1, nullptr, near)->goal.sample_ratio, 0.1f);
 
   auto ball = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, o.skill);
   ASSERT_TRUE(ball.ok()) << ball.status().message();

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <set>
 #include <vector>
 
@@ -85,14 +86,17 @@ HierarchyModels Models(const std::vector<policy::LevelSpec>& specs) {
   return m;
 }
 
-// runs `steps` env steps of the hierarchy; returns the recorder
-Recorder RunSteps(envs::Env& env, HierarchyRunner& runner, int steps) {
+// runs `steps` env steps of the hierarchy, calling decided(state) after each decision; returns
+// the recorder
+Recorder RunSteps(envs::Env& env, HierarchyRunner& runner, int steps,
+                  const std::function<void(const std::vector<float>&)>& decided = {}) {
   Recorder rec;
   std::vector<float> state(size_t(env.spec().state_dim())), next(state.size()), action(1);
   env.Reset(7, state);
   runner.StartEpisode(state, &rec);
   for (int t = 0; t < steps; ++t) {
     runner.Decide(state, action);
+    if (decided) decided(state);
     envs::StepResult r;
     EXPECT_TRUE(env.Step(action, next, &r).ok());
     runner.Observe(state, action, next, r.reward, r.done || r.truncated, r.truncated, r.interactions, &rec);
@@ -145,26 +149,13 @@ TEST(Hierarchy, FirstSkillRowsMarkReachedAndTimedOutGoals) {
 // the largest distance between a new goal and the paddle's x where it was drawn, over `steps`
 float FarthestNewGoal(envs::Env& env, HierarchyRunner& runner, int steps, int* goals) {
   const int px = env.spec().factor_offset(env.spec().factor_index("Paddle")) + 1;
-  Recorder rec;
-  std::vector<float> state(size_t(env.spec().state_dim())), next(state.size()), action(1);
-  env.Reset(3, state);
-  runner.StartEpisode(state, &rec);
   float farthest = 0, last_goal = -1;
   *goals = 0;
-  for (int t = 0; t < steps; ++t) {
-    runner.Decide(state, action);
+  RunSteps(env, runner, steps, [&](const std::vector<float>& state) {
     const float goal = runner.goal(1)[0];
     if (goal != last_goal) farthest = std::max(farthest, std::abs(goal - state[size_t(px)])), ++*goals;
     last_goal = goal;
-    envs::StepResult r;
-    EXPECT_TRUE(env.Step(action, next, &r).ok());
-    runner.Observe(state, action, next, r.reward, r.done || r.truncated, r.truncated, r.interactions, &rec);
-    std::swap(state, next);
-    if (r.done || r.truncated) {
-      env.ResetNext(state);
-      runner.StartEpisode(state, &rec);
-    }
-  }
+  });
   return farthest;
 }
 

@@ -290,8 +290,9 @@ TEST(Baseline, FineTuningStartsFromTheVanillaRunsTaskPolicyAndTrainsIt) {
                       std::chrono::seconds(200));
   ASSERT_EQ(r.code, 0) << r.output;
   const fs::path out = dir / "single";
+  // epochs a minute apart: at 2 s, a slow run (a sanitizer's) pruned epoch 0 before it ended
   r = RunCommand(Bin("coins") + " transfer " + pre.string() + " --env breakout-single --steps 3000 --quiet --dir " +
-                     out.string() + " --set dds.domain=" + domain,
+                     out.string() + " --set dds.domain=" + domain + " --set orchestrator.checkpoint_period_s=60",
                  std::chrono::seconds(200));
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(ReadJson(out / "transfer.json")["finetune"], true);

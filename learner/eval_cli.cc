@@ -194,6 +194,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
 }  // namespace
 
 Status RunEval(const EvalFlags& f) {
+  if (f.goal_sample_ratio >= 0 && f.skill.empty()) return Errorf("--goal-sample-ratio needs --skill");
   auto ckpt = FindCheckpoint(f.run_dir, f.epoch);
   if (!ckpt.ok()) return ckpt.status();
   auto trained_env = RunEnv(f.run_dir);
@@ -219,7 +220,6 @@ Status RunEval(const EvalFlags& f) {
 
   EvalRecorder recorder(f, **env);
   COINS_RETURN_IF_ERROR(recorder.Open());
-  if (f.goal_sample_ratio >= 0 && f.skill.empty()) return Errorf("--goal-sample-ratio needs --skill");
   EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore), float(f.goal_sample_ratio)};
   auto r = Evaluate(**env, **models, level, eo, [&](const EvalStep& s) { recorder.OnStep(s); });
   if (!r.ok()) return r.status();

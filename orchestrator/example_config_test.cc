@@ -13,7 +13,7 @@ namespace {
 
 // the keys the example sets to values of its own (each with a comment in the file)
 const std::set<std::string> kSetByTheExample = {"run.steps", "run.dir", "run.report_returns",
-                                                "orchestrator.skill_max_steps"};
+                                                "orchestrator.skill_max_steps", "learner.primitive_goal_sample_ratio"};
 
 TEST(ExampleConfig, ListsEveryKeyWithItsDefault) {
   auto text = ReadFileText(COINS_EXAMPLE_CONFIG);

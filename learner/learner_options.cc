@@ -41,6 +41,10 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
     v.FloatList(p + "pair_hidden", pair_hidden,
                 "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "
                 "obstacle regions ([]: the Mlp)");
+  if (p == "task_")
+    v.String(p + "relative", relative, {"link", "all"},
+             "link: the top link's source minus its target | all: every pair of single factors and, in a pair "
+             "network, every single factor minus each instance");
 }
 
 Status LevelTrainOptions::Validate(const std::string& p) const {

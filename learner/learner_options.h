@@ -51,6 +51,11 @@ struct LevelTrainOptions {
   // the task only: a pair network over the blocks (a multi-instance factor) with these
   // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp
   std::vector<double> pair_hidden;
+  // the task only: which relative positions it sees. "link": its top link's source minus target
+  // (Paddle-Ball, Gripper-Block); "all": every pair of single-instance factors (Block-Target too)
+  // and, in a pair network, every single factor minus each instance (Block-Obstacle), the
+  // inputs a vanilla task over primitive actions gets (it always sees every single pair)
+  std::string relative = "link";
 
   void Visit(ConfigVisitor& v, const std::string& p);
   Status Validate(const std::string& p) const;

@@ -134,7 +134,7 @@ Samples BenchPairNet(int reps, double min_seconds) {
   o.source_dim = 5;  // a Breakout factor [y, x, vy, vx, attr]
   o.instance_dim = 5;
   o.max_instances = instances;
-  o.relative_dim = 2;
+  o.relative = LeadingRelative(2);
   PairNet net(o, 1);
   Adam adam({.lr = 1e-4f}, net.params().size());
   Eigen::MatrixXf src = Eigen::MatrixXf::Random(o.source_dim, batch);

@@ -95,7 +95,7 @@ TEST(PairNetGrad, ParamsAndSourceMatchFiniteDifferences) {
   o.source_dim = 3;
   o.instance_dim = 4;
   o.max_instances = 3;
-  o.relative_dim = 2;
+  o.relative = {{0, 0, 1.0f, 0.0f}, {2, 1, 0.6f, 0.3f}};  // a scaled source row feeds its gradient
   o.point_sizes = {6, 5};
   o.output_dim = 3;
   o.hidden = Activation::kTanh;

@@ -9,14 +9,25 @@ Status PairNetOptions::Validate() const {
   if (source_dim < 0 || instance_dim <= 0)
     return Errorf("pairnet: source_dim {} must be >= 0 and instance_dim {} > 0", source_dim, instance_dim);
   if (max_instances <= 0) return Errorf("pairnet: max_instances {} must be > 0", max_instances);
-  if (relative_dim < 0 || relative_dim > source_dim || relative_dim > instance_dim)
-    return Errorf("pairnet: relative_dim {} must be within [0, min(source_dim {}, instance_dim {})]", relative_dim,
-                  source_dim, instance_dim);
+  for (size_t k = 0; k < relative.size(); ++k) {
+    const RelativeFeature& r = relative[k];
+    if (r.source < 0 || r.source >= source_dim || r.instance < 0 || r.instance >= instance_dim)
+      return Errorf("pairnet: relative feature {} pairs source row {} with instance row {} (rows: {} and {})", k,
+                    r.source, r.instance, source_dim, instance_dim);
+    if (!std::isfinite(r.scale) || !std::isfinite(r.shift))
+      return Errorf("pairnet: relative feature {} has scale {} and shift {} (finite values only)", k, r.scale, r.shift);
+  }
   if (point_sizes.empty()) return Errorf("pairnet: point_sizes is empty");
   for (int s : point_sizes)
     if (s <= 0) return Errorf("pairnet: point size {} must be positive", s);
   if (output_dim <= 0) return Errorf("pairnet: output_dim {} must be positive", output_dim);
   return Status::Ok();
+}
+
+std::vector<RelativeFeature> LeadingRelative(int count) {
+  std::vector<RelativeFeature> r;
+  for (int i = 0; i < count; ++i) r.push_back({i, i, 1.0f, 0.0f});
+  return r;
 }
 
 PairNet::PairNet(PairNetOptions options, uint64_t seed) : options_(std::move(options)) {
@@ -41,12 +52,12 @@ const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>&
                                         const Eigen::Ref<const Eigen::MatrixXf>& instances,
                                         const Eigen::Ref<const Eigen::MatrixXf>& mask) {
   const int n = options_.max_instances, ds = options_.source_dim, di = options_.instance_dim;
-  const int k = options_.relative_dim;
+  const int k = int(options_.relative.size());
   const Eigen::Index batch = source.cols();
   assert(source.rows() == ds && instances.rows() == n * di && mask.rows() == n);
   assert(instances.cols() == batch && mask.cols() == batch);
 
-  // build the points: column b * N + i = [s_a; s_b,i; s_a[0:k] - s_b,i[0:k]]
+  // build the points: column b * N + i = [s_a; s_b,i; relative features]
   Eigen::MatrixXf& points = acts_[0];
   points.resize(options_.point_input_dim(), n * batch);
   present_.resize(size_t(n) * batch);
@@ -56,7 +67,10 @@ const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>&
       present_[c] = mask(i, b) > 0.5f;
       if (ds > 0) points.col(c).head(ds) = source.col(b);
       points.col(c).segment(ds, di) = instances.col(b).segment(i * di, di);
-      if (k > 0) points.col(c).tail(k) = source.col(b).head(k) - instances.col(b).segment(i * di, k);
+      for (int r = 0; r < k; ++r) {
+        const RelativeFeature& f = options_.relative[size_t(r)];
+        points(ds + di + r, c) = f.scale * source(f.source, b) + f.shift - instances(i * di + f.instance, b);
+      }
     }
   }
 
@@ -160,10 +174,11 @@ const Eigen::MatrixXf& PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>
   return source_grad_;
 }
 
-// every point holds s_a in its head and s_a[0:k] in the relative tail: both feed the source's
-// gradient, summed over the instances (an absent one got no gradient from the pool)
+// every point holds s_a in its head and scaled source rows in the relative tail: both feed the
+// source's gradient, summed over the instances (an absent one got no gradient from the pool)
 void PairNet::SourceGrad() {
-  const int n = options_.max_instances, ds = options_.source_dim, k = options_.relative_dim;
+  const int n = options_.max_instances, ds = options_.source_dim, di = options_.instance_dim;
+  const int k = int(options_.relative.size());
   const Eigen::Index batch = out_.cols();
   point_grad_.resize(acts_[0].rows(), acts_[0].cols());
   point_grad_.noalias() = params_.Value(0).transpose() * deltas_[0];
@@ -172,7 +187,10 @@ void PairNet::SourceGrad() {
     for (int i = 0; i < n; ++i) {
       const Eigen::Index c = b * n + i;
       if (ds > 0) source_grad_.col(b) += point_grad_.col(c).head(ds);
-      if (k > 0) source_grad_.col(b).head(k) += point_grad_.col(c).tail(k);
+      for (int r = 0; r < k; ++r) {
+        const RelativeFeature& f = options_.relative[size_t(r)];
+        source_grad_(f.source, b) += f.scale * point_grad_(ds + di + r, c);
+      }
     }
 }
 

@@ -2,14 +2,17 @@
 //
 // Input per sample: one source vector s_a (source_dim), N instances s_b of the target class
 // (instance_dim each, laid out instance-major in one column), and a mask (N) that is > 0.5 for
-// present instances. Each instance becomes a point [s_a; s_b; s_a[0:k] - s_b[0:k]] (k =
-// relative_dim); a shared per-point MLP (point_sizes, the hidden activation after every layer)
+// present instances. Each instance becomes a point [s_a; s_b; r], where r holds one relative
+// feature per entry of `relative`: scale * s_a[source] + shift - s_b[instance] (the affine maps
+// a normalised source feature into the instance feature's units, so r is a true difference of
+// positions); a shared per-point MLP (point_sizes, the hidden activation after every layer)
 // runs over all N * B points at once; a masked max-pool over instances gives one feature vector
 // per sample (zero when no instance is present); a dense layer (options.output activation)
 // maps it to output_dim.
 //
 // Parameters are laid out exactly like an Mlp with sizes
-// {point_input_dim, point_sizes..., output_dim}, so with one present instance and k = 0 the
+// {point_input_dim, point_sizes..., output_dim}, so with one present instance and no relative
+// features the
 // pair-net equals that Mlp on [s_a; s_b] (tested). Like Mlp, workspaces are reused across
 // calls and Backward refers to the most recent Forward. Backward can return the gradient with
 // respect to the source (a critic's action sits there); the instances' gradient is not provided.
@@ -26,16 +29,26 @@
 
 namespace coins::nn {
 
+// one relative feature of every point: scale * s_a[source] + shift - s_b[instance]
+struct RelativeFeature {
+  int source = 0;    // row of s_a
+  int instance = 0;  // row of one instance
+  float scale = 1.0f, shift = 0.0f;
+};
+
+// `count` relative features s_a[i] - s_b[i], i < count
+std::vector<RelativeFeature> LeadingRelative(int count);
+
 struct PairNetOptions {
-  int source_dim = 0;     // features of s_a (may be 0)
-  int instance_dim = 0;   // features per instance of s_b
-  int max_instances = 1;  // N
-  int relative_dim = 0;   // k: s_a[0:k] - s_b[0:k] appended to each point (k <= both dims)
+  int source_dim = 0;                                         // features of s_a (may be 0)
+  int instance_dim = 0;                                       // features per instance of s_b
+  int max_instances = 1;                                      // N
+  std::vector<RelativeFeature> relative;                      // appended to each point, in order
   std::vector<int> point_sizes = {128, 128, 128, 256, 1024};  // the paper's 1-d conv widths
   int output_dim = 256;  // the dense layer after the pool (the paper's 256 linear layer)
   Activation hidden = Activation::kRelu;
   Activation output = Activation::kIdentity;
-  int point_input_dim() const { return source_dim + instance_dim + relative_dim; }
+  int point_input_dim() const { return source_dim + instance_dim + int(relative.size()); }
   Status Validate() const;
 };
 

@@ -1,5 +1,7 @@
 // Pair-net behaviour: reduces to an MLP for one instance, respects the mask, is invariant to
 // the order of instances.
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "common/nn/mlp.h"
@@ -13,7 +15,7 @@ PairNetOptions Options(int instances, int relative) {
   o.source_dim = 3;
   o.instance_dim = 4;
   o.max_instances = instances;
-  o.relative_dim = relative;
+  o.relative = LeadingRelative(relative);
   o.point_sizes = {16, 12};
   o.output_dim = 5;
   o.hidden = Activation::kRelu;
@@ -75,7 +77,27 @@ TEST(PairNet, ValidateNamesTheProblem) {
   PairNetOptions o = Options(2, 5);
   Status s = o.Validate();
   ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.message().find("relative_dim"), std::string::npos);
+  EXPECT_NE(s.message().find("relative feature 3 pairs source row 3"), std::string::npos) << s.message();
+  o = Options(2, 1);
+  o.relative[0].scale = std::nanf("");
+  s = o.Validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("relative feature 0 has scale nan"), std::string::npos) << s.message();
+}
+
+// a relative feature is scale * s_a[source] + shift - s_b[instance], appended after s_b
+TEST(PairNet, RelativeFeaturesAreAffineDifferencesAppendedToEachPoint) {
+  PairNetOptions o = Options(1, 0);
+  o.relative = {{2, 1, 0.6f, -0.25f}, {0, 3, 1.0f, 0.0f}};
+  PairNet pair(o, 3);
+  Mlp mlp({{9, 16, 12, 5}, Activation::kRelu, Activation::kTanh}, 99);
+  ASSERT_TRUE(pair.params().SameShape(mlp.params()));
+  mlp.params().values = pair.params().values;
+  Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 4), inst = Eigen::MatrixXf::Random(4, 4);
+  Eigen::MatrixXf cat(9, 4);
+  cat << src, inst, 0.6f * src.row(2).array() - 0.25f - inst.row(1).array(), src.row(0) - inst.row(3);
+  Eigen::MatrixXf a = pair.Forward(src, inst, Eigen::MatrixXf::Ones(1, 4));
+  EXPECT_TRUE(a.isApprox(mlp.Forward(cat), 1e-6f));
 }
 
 }  // namespace

@@ -16,6 +16,15 @@ Status QNetOptions::Validate() const {
   if (s.presence < -1 || s.presence >= s.instance_dim)
     return Errorf("network: presence row {} outside an instance of {} (-1: always present)", s.presence,
                   s.instance_dim);
+  const int end = s.offset + s.instances * s.instance_dim;
+  for (size_t k = 0; k < s.relative.size(); ++k) {
+    const RelativeFeature& r = s.relative[k];
+    if (r.source < 0 || r.source >= obs_dim || (r.source >= s.offset && r.source < end))
+      return Errorf("network: relative feature {} reads observation row {}, not a row outside the instances", k,
+                    r.source);
+    if (r.instance < 0 || r.instance >= s.instance_dim)
+      return Errorf("network: relative feature {} reads instance row {} of {}", k, r.instance, s.instance_dim);
+  }
   return Status::Ok();
 }
 
@@ -36,6 +45,10 @@ QNet::QNet(QNetOptions options, uint64_t seed) : options_(std::move(options)) {
   p.output_dim = options_.outputs;
   p.hidden = options_.hidden_act;
   p.output = options_.output_act;
+  for (RelativeFeature r : s.relative) {  // observation rows -> rows of the pair-net's source
+    if (r.source >= s.offset) r.source -= s.instances * s.instance_dim;
+    p.relative.push_back(r);
+  }
   pair_ = PairNet(p, seed);
 }
 

@@ -4,6 +4,7 @@
 // that sit contiguously in the observation, each joined with the rest of the observation; an
 // instance whose presence feature is 0 (|x| <= 0.5: a broken block) is left out of the pool,
 // and a class without a presence feature (presence -1: obstacles) has every instance present.
+// Each point may also carry relative features (another factor's position minus the instance's).
 // A pair network's weights do not depend on the number of instances, so one trained on 100
 // blocks runs on a board of 10.
 //
@@ -29,6 +30,9 @@ struct InstanceSplit {
   int instances = 0;     // N; 0: no split (a plain Mlp)
   int instance_dim = 0;  // rows per instance
   int presence = 0;      // the instance's row that is non-zero while it is present; -1: always present
+  // relative features of every point (pairnet.h); here `source` is an observation row outside
+  // the instances and `instance` a row of one instance
+  std::vector<RelativeFeature> relative;
   bool enabled() const { return instances > 0; }
 };
 

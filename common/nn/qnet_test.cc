@@ -23,9 +23,15 @@ Eigen::MatrixXf Observations(int B) {
   return obs;
 }
 
+// with relative features read from rows on both sides of the instances (observation rows 14 and
+// 0 are rows 2 and 0 of the pair network's source)
 TEST(QNet, ASplitObservationIsThePairNetOfItsParts) {
-  QNet net(Split(), 7);
+  QNetOptions o = Split();
+  o.split.relative = {{14, 1, 2.0f, 0.1f}, {0, 0, 1.0f, 0.0f}};
+  ASSERT_TRUE(o.Validate().ok());
+  QNet net(o, 7);
   PairNetOptions p;
+  p.relative = {{2, 1, 2.0f, 0.1f}, {0, 0, 1.0f, 0.0f}};
   p.source_dim = 3;
   p.instance_dim = 4;
   p.max_instances = 3;
@@ -93,6 +99,11 @@ TEST(QNet, WithoutASplitItIsAnMlpAndBadSplitsAreRefused) {
   EXPECT_FALSE(bad.Validate().ok());
   bad.split.presence = -2;
   EXPECT_FALSE(bad.Validate().ok());
+  bad = Split();
+  bad.split.relative = {{5, 0, 1.0f, 0.0f}};  // row 5 is inside instance 0
+  EXPECT_NE(bad.Validate().message().find("relative feature 0 reads observation row 5"), std::string::npos);
+  bad.split.relative = {{1, 4, 1.0f, 0.0f}};
+  EXPECT_NE(bad.Validate().message().find("reads instance row 4 of 4"), std::string::npos);
 }
 
 }  // namespace

@@ -177,6 +177,10 @@ nlohmann::json ToJson(const LevelSpec& s) {
                  {"instances", s.pair.instances},
                  {"instance_dim", s.pair.instance_dim},
                  {"presence", s.pair.presence}};
+  if (!s.pair.relative.empty()) {  // [observation row, instance row, scale, shift] per feature
+    nlohmann::json& rel = j["pair"]["relative"] = nlohmann::json::array();
+    for (const nn::RelativeFeature& r : s.pair.relative) rel.push_back({r.source, r.instance, r.scale, r.shift});
+  }
   return j;
 }
 
@@ -233,6 +237,9 @@ LevelSpec ReadSpec(const nlohmann::json& j) {
     s.pair.instances = p.at("instances").get<int>();
     s.pair.instance_dim = p.at("instance_dim").get<int>();
     s.pair.presence = p.at("presence").get<int>();
+    if (p.contains("relative"))  // absent in weights written before pair relative features existed
+      for (const auto& r : p.at("relative"))
+        s.pair.relative.push_back({r.at(0).get<int>(), r.at(1).get<int>(), r.at(2).get<float>(), r.at(3).get<float>()});
   }
   return s;
 }

@@ -35,7 +35,9 @@ std::string InstanceFeature(std::string name) {
   return name;
 }
 
-// the network's input rows: the observation, or with a pair network one point's inputs
+// the network's input rows: the observation, or with a pair network one point's inputs (the
+// rows outside the instances, one instance, its relative features "Block.x-Obstacle.x" in the
+// instance feature's units)
 std::vector<InputRow> NetworkInputs(const policy::LevelSpec& s, const envs::EnvSpec& env) {
   std::vector<InputRow> obs = ObservationRows(s, env);
   if (!s.pair.enabled()) return obs;
@@ -44,6 +46,11 @@ std::vector<InputRow> NetworkInputs(const policy::LevelSpec& s, const envs::EnvS
   point.insert(point.end(), obs.begin() + long(end), obs.end());
   for (size_t j = first; j < first + size_t(s.pair.instance_dim); ++j)
     point.push_back({InstanceFeature(obs[j].name), obs[j].low, obs[j].high});
+  for (const nn::RelativeFeature& r : s.pair.relative) {
+    const InputRow& i = obs[first + size_t(r.instance)];
+    const float half = 0.5f * (i.high - i.low);
+    point.push_back({obs[size_t(r.source)].name + "-" + InstanceFeature(i.name), -half, half});
+  }
   return point;
 }
 

@@ -22,7 +22,8 @@ namespace coins {
 
 // one per network input row, in order: "Paddle.x" for a state feature, "Paddle.x-Ball.x" for a
 // relative pair, "goal.Ball.vy" for a goal row. With a pair network, the inputs of one point:
-// the rows outside the instances, then one instance's features ("Block.x").
+// the rows outside the instances, then one instance's features ("Block.x"), then its relative
+// features ("Ball.x-Block.x").
 std::vector<std::string> NetworkInputNames(const policy::LevelSpec& spec, const envs::EnvSpec& env);
 
 // for each input row of `to`, the input row of `from` carrying the same feature (-1: new in `to`)

@@ -92,9 +92,52 @@ void SetPrimitiveActions(const envs::EnvSpec& env, const LevelTrainOptions& o, L
   s->decision_period = 1;
 }
 
+// the single-instance state factors (not Action, Done or Reward), in env order
+std::vector<int> SingleStateFactors(const envs::EnvSpec& env) {
+  std::vector<int> single;
+  for (int f = 0; f < int(env.factors.size()); ++f) {
+    const envs::FactorSpec& fs = env.factors[size_t(f)];
+    if (!fs.multi_instance && fs.name != "Action" && fs.name != "Done" && fs.name != "Reward") single.push_back(f);
+  }
+  return single;
+}
+
+// relative positions of every pair of single-instance factors (Paddle-Ball, Block-Target)
+void AddRelativeOfEveryPair(const envs::EnvSpec& env, LevelSpec* s) {
+  const std::vector<int> single = SingleStateFactors(env);
+  for (size_t a = 0; a < single.size(); ++a)
+    for (size_t b = a + 1; b < single.size(); ++b) AddRelative(env, single[a], single[b], s);
+}
+
+// each point of the pair network also sees every single factor's x, y, z minus the instance's
+// same feature, in the instance's normalised units: a normalised source value n_a is mapped by
+// half_a / half_i * n_a + (mid_a - mid_i) / half_i, so the feature is (a - i) / half_i
+void AddPairRelative(const envs::EnvSpec& env, LevelSpec* s) {
+  const envs::FactorSpec& inst = env.factors[size_t(env.factor_index(s->pair_factor))];
+  auto obs_row = [&](int full) {
+    return int(std::find(s->obs_index.begin(), s->obs_index.end(), full) - s->obs_index.begin());
+  };
+  for (int f : SingleStateFactors(env)) {
+    const envs::FactorSpec& a = env.factors[size_t(f)];
+    for (int i = 0; i < a.features; ++i) {
+      const std::string& n = a.feature_names[size_t(i)];
+      if (n != "x" && n != "y" && n != "z") continue;
+      const auto j = std::find(inst.feature_names.begin(), inst.feature_names.end(), n);
+      if (j == inst.feature_names.end()) continue;
+      const int row = obs_row(env.factor_offset(f) + i), k = int(j - inst.feature_names.begin());
+      const float mid_a = 0.5f * (s->obs_high[size_t(row)] + s->obs_low[size_t(row)]);
+      const float half_a = 0.5f * (s->obs_high[size_t(row)] - s->obs_low[size_t(row)]);
+      const float mid_i = 0.5f * (inst.high[size_t(k)] + inst.low[size_t(k)]);
+      const float half_i = 0.5f * (inst.high[size_t(k)] - inst.low[size_t(k)]);
+      s->pair.relative.push_back({row, k, half_a / half_i, (mid_a - mid_i) / half_i});
+    }
+  }
+}
+
 // every factor but Action, Done and Reward; with pair_hidden, a pair network over the first
 // multi-instance factor (its instances are contiguous in the observation; presence: attr, or
-// every instance present when the class has no attr, like the pushing obstacles)
+// every instance present when the class has no attr, like the pushing obstacles), whose points
+// see the single factors relative to the instance when o.relative is "all"
 void AddStateFactors(const envs::EnvSpec& env, const LevelTrainOptions& o, LevelSpec* s) {
   for (int f = 0; f < int(env.factors.size()); ++f) {
     const envs::FactorSpec& fs = env.factors[size_t(f)];
@@ -102,12 +145,16 @@ void AddStateFactors(const envs::EnvSpec& env, const LevelTrainOptions& o, Level
     if (fs.multi_instance && !o.pair_hidden.empty() && !s->pair.enabled()) {
       const auto attr = std::find(fs.feature_names.begin(), fs.feature_names.end(), "attr");
       s->pair_factor = fs.name;
-      s->pair = {int(s->obs_index.size()), fs.instances, fs.features,
-                 attr == fs.feature_names.end() ? -1 : int(attr - fs.feature_names.begin())};
+      s->pair = {int(s->obs_index.size()),
+                 fs.instances,
+                 fs.features,
+                 attr == fs.feature_names.end() ? -1 : int(attr - fs.feature_names.begin()),
+                 {}};
       s->hidden.assign(o.pair_hidden.begin(), o.pair_hidden.end());
     }
     AddFactor(env, f, s);
   }
+  if (s->pair.enabled() && o.relative == "all") AddPairRelative(env, s);
 }
 
 Status SetGoalSpace(const envs::EnvSpec& env, const msg::LinkSpec& link, const LevelTrainOptions& o, LevelSpec* s) {
@@ -177,8 +224,12 @@ Result<LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const LevelSpec& top, 
   s.level = top.level + 1;
   SetNetwork(o, &s);
   AddStateFactors(env, o, &s);
-  const int fs = top.source == "Action" ? -1 : env.factor_index(top.source);
-  AddRelative(env, fs, env.factor_index(top.goal.factor), &s);
+  if (o.relative == "all") {
+    AddRelativeOfEveryPair(env, &s);
+  } else {
+    const int fs = top.source == "Action" ? -1 : env.factor_index(top.source);
+    AddRelative(env, fs, env.factor_index(top.goal.factor), &s);
+  }
   COINS_RETURN_IF_ERROR(SetChildActions(top, o, &s));
   COINS_RETURN_IF_ERROR(s.Validate());
   return s;
@@ -190,14 +241,7 @@ Result<LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTr
   s.level = 1;
   SetNetwork(o, &s);
   AddStateFactors(env, o, &s);
-  // relative positions of every pair of single-instance factors (Paddle-Ball in Breakout)
-  std::vector<int> single;
-  for (int f = 0; f < int(env.factors.size()); ++f) {
-    const envs::FactorSpec& fs = env.factors[size_t(f)];
-    if (!fs.multi_instance && fs.name != "Action" && fs.name != "Done" && fs.name != "Reward") single.push_back(f);
-  }
-  for (size_t a = 0; a < single.size(); ++a)
-    for (size_t b = a + 1; b < single.size(); ++b) AddRelative(env, single[a], single[b], &s);
+  AddRelativeOfEveryPair(env, &s);
   if (o.decision_period > 1)
     return Errorf("learner.task_decision_period {}: the task over primitive actions of {} acts every env step (0 or 1)",
                   o.decision_period, env.name);

@@ -10,8 +10,9 @@
 // per ten transitions in the scoring data: a bounce, a push) needs one for success and, unless its
 // group's interaction_ends_goal is "never" (pushing), ends goals at any detected interaction; a link whose source acts
 // on the target most of the time (the primitive action moving the paddle: about one step in two) ends goals on reaching
-// them. The task observes every factor but Action, Done and Reward, relative positions of the top link, and acts with
-// the top skill's goals.
+// them. The task observes every factor but Action, Done and Reward, relative positions of the top link (or, with
+// task_relative "all", of every pair of single factors and, in its pair network, of every single factor to each
+// instance), and acts with the top skill's goals.
 #pragma once
 
 #include "common/env_spec.h"
@@ -30,7 +31,8 @@ Result<policy::LevelSpec> BuildTaskSpec(const envs::EnvSpec& env, const policy::
 
 // the task without a chain (orchestrator.chain none: the vanilla baseline): level 1 over primitive
 // actions, observing every factor but Action, Done and Reward and the relative positions of every
-// pair of single-instance factors (Paddle-Ball in Breakout, the baselines' added features)
+// pair of single-instance factors (Paddle-Ball in Breakout, the baselines' added features); with
+// task_relative "all" its pair network's points see every single factor minus the instance too
 Result<policy::LevelSpec> BuildPrimitiveTaskSpec(const envs::EnvSpec& env, const LevelTrainOptions& options);
 
 // rare interactions: the link's skill ends goals at any detected interaction

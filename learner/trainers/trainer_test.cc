@@ -200,6 +200,60 @@ TEST(LevelBuilder, PushingTaskPairNetworkOverTheObstacles) {
   }
 }
 
+// learner.task_relative all: the pushing task over the block skill sees every pair of single
+// factors (Block-Target among them) and each obstacle region's point sees every single factor's
+// position minus the region's, in the region's units; the spec's JSON carries them
+TEST(LevelBuilder, PushingTaskSeesEveryRelativePositionWithTaskRelativeAll) {
+  auto env = envs::MakeEnv("pushing");
+  ASSERT_TRUE(env.ok());
+  const envs::EnvSpec& spec = (*env)->spec();
+  LearnerOptions o;
+  o.skill.algorithm = o.task.algorithm = "sac";
+  o.skill.child_offsets.clear();
+  o.task.pair_hidden = {16, 16};
+  const msg::LinkSpec gripper =
+      Link("Action", "Gripper", {1, 1, 1}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f, 0.02f, 0.2f}, 0.9);
+  const msg::LinkSpec block = Link("Gripper", "Block", {1, 1, 0}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f}, 0.01);
+  auto g = BuildSkillSpec(spec, gripper, 1, nullptr, o.primitive);
+  auto b = BuildSkillSpec(spec, block, 2, &*g, o.skill);
+  ASSERT_TRUE(g.ok() && b.ok());
+  auto link = BuildTaskSpec(spec, *b, o.task);
+  ASSERT_TRUE(link.ok()) << link.status().message();
+  EXPECT_EQ(link->relative.size(), 3u);  // Gripper-Block x, y, z
+  EXPECT_TRUE(link->pair.relative.empty());
+  o.task.relative = "all";
+  for (const bool vanilla : {false, true}) {
+    auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, *b, o.task);
+    ASSERT_TRUE(task.ok()) << task.status().message();
+    EXPECT_EQ(task->relative.size(), 9u);       // Gripper-Block, Gripper-Target, Block-Target
+    ASSERT_EQ(task->pair.relative.size(), 9u);  // Gripper, Block, Target minus each region
+    const std::vector<std::string> names = NetworkInputNames(*task, spec);
+    EXPECT_NE(std::find(names.begin(), names.end(), "Block.x-Target.x"), names.end());
+    auto bx = std::find(names.begin(), names.end(), "Block.x-Obstacle.x");
+    ASSERT_NE(bx, names.end());
+    // the feature of region 7 for a block at x = 0.1 and the region at x = 0.04: (0.1 - 0.04) / 0.15
+    std::vector<float> state(size_t(spec.state_dim()), 0.0f), features(task->obs_index.size());
+    state[size_t(spec.factor_offset(spec.factor_index("Block")))] = 0.1f;
+    state[size_t(spec.factor_offset(spec.factor_index("Obstacle")) + 3 * 7)] = 0.04f;
+    std::vector<float> obs(size_t(task->obs_dim()));
+    policy::GatherFeatures(*task, state.data(), features.data());
+    policy::BuildObservation(*task, features.data(), nullptr, obs.data());
+    const int first = names.end() - names.begin() - 9;  // the relative features end a point
+    const nn::RelativeFeature& r = task->pair.relative[size_t(bx - names.begin() - first)];
+    const float value = r.scale * obs[size_t(r.source)] + r.shift - obs[size_t(task->pair.offset + 3 * 7 + r.instance)];
+    EXPECT_NEAR(value, (0.1f - 0.04f) / 0.15f, 1e-5f);
+    auto back = policy::ParseLevelSpec(policy::ToJson(*task).dump());
+    ASSERT_TRUE(back.ok()) << back.status().message();
+    EXPECT_EQ(policy::ToJson(*back), policy::ToJson(*task));
+    ASSERT_EQ(back->pair.relative.size(), 9u);
+    EXPECT_EQ(back->pair.relative[4].shift, task->pair.relative[4].shift);
+    auto trainer = PolicyTrainer::Create(*task, o.task, 5);
+    ASSERT_TRUE(trainer.ok()) << trainer.status().message();
+    auto net = policy::PolicyNet::Create(*back);
+    ASSERT_TRUE(net.ok() && net->Load((*trainer)->ActingBlob(), "acting").ok());
+  }
+}
+
 // fine-tuning a vanilla task trained on base Breakout in breakout-prox, which adds a Target
 // factor: the re-laid network keeps every trained input weight, gives the target's inputs zero
 // weights and zero optimiser moments, and so computes exactly what the trained one did

@@ -153,27 +153,43 @@ TEST(LevelBuilder, TaskPairNetworkOverTheBlocks) {
   }
 }
 
+// pushing's gripper and block skills (sac) and the options of a task over them with a pair
+// network over the obstacle regions
+class PushingTask : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto made = envs::MakeEnv("pushing");
+    ASSERT_TRUE(made.ok()) << made.status().message();
+    env_ = std::move(*made);
+    o.skill.algorithm = o.task.algorithm = "sac";
+    o.skill.child_offsets.clear();
+    o.task.pair_hidden = {16, 16};
+    auto g = BuildSkillSpec(
+        spec(), Link("Action", "Gripper", {1, 1, 1}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f, 0.02f, 0.2f}, 0.9), 1,
+        nullptr, o.primitive);
+    ASSERT_TRUE(g.ok()) << g.status().message();
+    auto b = BuildSkillSpec(spec(), Link("Gripper", "Block", {1, 1, 0}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f}, 0.01),
+                            2, &*g, o.skill);
+    ASSERT_TRUE(b.ok()) << b.status().message();
+    block = *b;
+  }
+  const envs::EnvSpec& spec() const { return env_->spec(); }
+
+  LearnerOptions o;
+  policy::LevelSpec block;
+
+ private:
+  std::unique_ptr<envs::Env> env_;
+};
+
 // pushing's task (sac over relative block goals) and its vanilla baseline (sac on primitive
 // actions) with learner.task_pair_hidden: a pair network over the 15 obstacle regions, every
 // region present (the class has no attr); actors load what the trainer learns, and the state
 // round-trips
-TEST(LevelBuilder, PushingTaskPairNetworkOverTheObstacles) {
-  auto env = envs::MakeEnv("pushing");
-  ASSERT_TRUE(env.ok());
-  const envs::EnvSpec& spec = (*env)->spec();
-  LearnerOptions o;
-  o.skill.algorithm = o.task.algorithm = "sac";
-  o.skill.child_offsets.clear();
-  o.task.pair_hidden = {16, 16};
-  const msg::LinkSpec gripper =
-      Link("Action", "Gripper", {1, 1, 1}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f, 0.02f, 0.2f}, 0.9);
-  const msg::LinkSpec block = Link("Gripper", "Block", {1, 1, 0}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f}, 0.01);
-  auto g = BuildSkillSpec(spec, gripper, 1, nullptr, o.primitive);
-  ASSERT_TRUE(g.ok()) << g.status().message();
-  auto b = BuildSkillSpec(spec, block, 2, &*g, o.skill);
-  ASSERT_TRUE(b.ok()) << b.status().message();
+TEST_F(PushingTask, PairNetworkOverTheObstacles) {
+  const envs::EnvSpec& spec = this->spec();
   for (const bool vanilla : {false, true}) {
-    auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, *b, o.task);
+    auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, block, o.task);
     ASSERT_TRUE(task.ok()) << task.status().message();
     EXPECT_EQ(task->algorithm, "sac");
     EXPECT_EQ(task->pair_factor, "Obstacle");
@@ -203,27 +219,15 @@ TEST(LevelBuilder, PushingTaskPairNetworkOverTheObstacles) {
 // learner.task_relative all: the pushing task over the block skill sees every pair of single
 // factors (Block-Target among them) and each obstacle region's point sees every single factor's
 // position minus the region's, in the region's units; the spec's JSON carries them
-TEST(LevelBuilder, PushingTaskSeesEveryRelativePositionWithTaskRelativeAll) {
-  auto env = envs::MakeEnv("pushing");
-  ASSERT_TRUE(env.ok());
-  const envs::EnvSpec& spec = (*env)->spec();
-  LearnerOptions o;
-  o.skill.algorithm = o.task.algorithm = "sac";
-  o.skill.child_offsets.clear();
-  o.task.pair_hidden = {16, 16};
-  const msg::LinkSpec gripper =
-      Link("Action", "Gripper", {1, 1, 1}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f, 0.02f, 0.2f}, 0.9);
-  const msg::LinkSpec block = Link("Gripper", "Block", {1, 1, 0}, "continuous", {-0.2f, 0.2f, -0.2f, 0.2f}, 0.01);
-  auto g = BuildSkillSpec(spec, gripper, 1, nullptr, o.primitive);
-  auto b = BuildSkillSpec(spec, block, 2, &*g, o.skill);
-  ASSERT_TRUE(g.ok() && b.ok());
-  auto link = BuildTaskSpec(spec, *b, o.task);
+TEST_F(PushingTask, SeesEveryRelativePositionWithTaskRelativeAll) {
+  const envs::EnvSpec& spec = this->spec();
+  auto link = BuildTaskSpec(spec, block, o.task);
   ASSERT_TRUE(link.ok()) << link.status().message();
   EXPECT_EQ(link->relative.size(), 3u);  // Gripper-Block x, y, z
   EXPECT_TRUE(link->pair.relative.empty());
   o.task.relative = "all";
   for (const bool vanilla : {false, true}) {
-    auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, *b, o.task);
+    auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, block, o.task);
     ASSERT_TRUE(task.ok()) << task.status().message();
     EXPECT_EQ(task->relative.size(), 9u);       // Gripper-Block, Gripper-Target, Block-Target
     ASSERT_EQ(task->pair.relative.size(), 9u);  // Gripper, Block, Target minus each region

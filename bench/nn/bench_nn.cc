@@ -216,7 +216,7 @@ void BenchSacVariants(coins::Figures* f, const std::string& prefix, int obs, int
 
 // pushing's sac levels at the widths of deploy/configs/pushing.yaml against wider ones
 void BenchPushingSac(coins::Figures* f, int reps, double min_seconds) {
-  const coins::nn::InstanceSplit regions{6, 15, 3, -1};  // the task's 15 obstacle regions at row 6
+  const coins::nn::InstanceSplit regions{6, 15, 3, -1, {}};  // the task's 15 obstacle regions at row 6
   BenchSacVariants(f, "pushing_task_sac_", 57, 2, 128, {"mlp_128x3", {128, 128, 128}, {}},
                    {{"pair_64x2", {64, 64}, regions},
                     {"pair_128x3", {128, 128, 128}, regions},

@@ -12,7 +12,7 @@ QNetOptions Split() {
   o.obs_dim = 2 + 3 * 4 + 1;
   o.hidden = {8, 6};
   o.outputs = 5;
-  o.split = {2, 3, 4, 3};
+  o.split = {2, 3, 4, 3, {}};
   return o;
 }
 

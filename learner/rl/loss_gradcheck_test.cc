@@ -91,7 +91,7 @@ TEST_P(SacLossGrad, ActorMatchesFiniteDifferences) {
   o.action_dim = 2;
   o.hidden = {16, 16};
   o.activation = nn::Activation::kTanh;
-  if (pair) o.split = {2, 3, 2, -1};
+  if (pair) o.split = {2, 3, 2, -1, {}};
   ASSERT_TRUE(o.Validate().ok()) << o.Validate().message();
   Sac sac(o);
   Eigen::MatrixXf obs = Random(o.obs_dim, 8, 1), noise = Random(2, 8, 2);

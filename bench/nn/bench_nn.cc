@@ -222,6 +222,13 @@ void BenchPushingSac(coins::Figures* f, int reps, double min_seconds) {
                     {"pair_128x3", {128, 128, 128}, regions},
                     {"pair_paper", {128, 128, 128, 256, 1024}, regions}},
                    reps, min_seconds);
+  // learner.task_relative all: 9 flat relative rows (obs 63) and each region's point also sees
+  // Gripper, Block and Target (rows 0-5, 51-53) minus the region (9 features), against the same
+  // network without the per-point features
+  coins::nn::InstanceSplit relative = regions;
+  for (int row : {0, 1, 2, 3, 4, 5, 51, 52, 53}) relative.relative.push_back({row, row % 3, 1.0f, 0.0f});
+  BenchSacVariants(f, "pushing_task_all_sac_", 63, 2, 128, {"pair_64x2", {64, 64}, regions},
+                   {{"pair_64x2_relative", {64, 64}, relative}}, reps, min_seconds);
   // the block skill: gripper, block, their difference and the x, y goal in; a gripper goal out
   BenchSacVariants(f, "pushing_block_sac_", 11, 3, 128, {"mlp_128x3", {128, 128, 128}, {}},
                    {{"mlp_paper", {256, 256, 256, 256, 128}, {}}}, reps, min_seconds);

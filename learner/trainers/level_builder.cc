@@ -24,14 +24,17 @@ void AddFactor(const envs::EnvSpec& env, int f, LevelSpec* s) {
   }
 }
 
+// the observation row of a state feature already in the observation
+int ObsRow(const LevelSpec& s, int full) {
+  return int(std::find(s.obs_index.begin(), s.obs_index.end(), full) - s.obs_index.begin());
+}
+
 // relative positions of two single factors already in the observation (positions into obs_index)
 void AddRelative(const envs::EnvSpec& env, int fa, int fb, LevelSpec* s) {
   if (fa < 0 || fb < 0) return;
   const envs::FactorSpec &a = env.factors[size_t(fa)], &b = env.factors[size_t(fb)];
   const int oa = env.factor_offset(fa), ob = env.factor_offset(fb);
-  auto pos = [&](int full) {
-    return int(std::find(s->obs_index.begin(), s->obs_index.end(), full) - s->obs_index.begin());
-  };
+  auto pos = [&](int full) { return ObsRow(*s, full); };
   for (int i = 0; i < a.features; ++i) {
     const std::string& n = a.feature_names[size_t(i)];
     if (n != "x" && n != "y" && n != "z") continue;
@@ -114,9 +117,6 @@ void AddRelativeOfEveryPair(const envs::EnvSpec& env, LevelSpec* s) {
 // half_a / half_i * n_a + (mid_a - mid_i) / half_i, so the feature is (a - i) / half_i
 void AddPairRelative(const envs::EnvSpec& env, LevelSpec* s) {
   const envs::FactorSpec& inst = env.factors[size_t(env.factor_index(s->pair_factor))];
-  auto obs_row = [&](int full) {
-    return int(std::find(s->obs_index.begin(), s->obs_index.end(), full) - s->obs_index.begin());
-  };
   for (int f : SingleStateFactors(env)) {
     const envs::FactorSpec& a = env.factors[size_t(f)];
     for (int i = 0; i < a.features; ++i) {
@@ -124,7 +124,7 @@ void AddPairRelative(const envs::EnvSpec& env, LevelSpec* s) {
       if (n != "x" && n != "y" && n != "z") continue;
       const auto j = std::find(inst.feature_names.begin(), inst.feature_names.end(), n);
       if (j == inst.feature_names.end()) continue;
-      const int row = obs_row(env.factor_offset(f) + i), k = int(j - inst.feature_names.begin());
+      const int row = ObsRow(*s, env.factor_offset(f) + i), k = int(j - inst.feature_names.begin());
       const float mid_a = 0.5f * (s->obs_high[size_t(row)] + s->obs_low[size_t(row)]);
       const float half_a = 0.5f * (s->obs_high[size_t(row)] - s->obs_low[size_t(row)]);
       const float mid_i = 0.5f * (inst.high[size_t(k)] + inst.low[size_t(k)]);

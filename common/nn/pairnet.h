@@ -12,9 +12,8 @@
 //
 // Parameters are laid out exactly like an Mlp with sizes
 // {point_input_dim, point_sizes..., output_dim}, so with one present instance and no relative
-// features the
-// pair-net equals that Mlp on [s_a; s_b] (tested). Like Mlp, workspaces are reused across
-// calls and Backward refers to the most recent Forward. Backward can return the gradient with
+// features the pair-net equals that Mlp on [s_a; s_b] (tested). Like Mlp, workspaces are reused
+// across calls and Backward refers to the most recent Forward. Backward can return the gradient with
 // respect to the source (a critic's action sits there); the instances' gradient is not provided.
 #pragma once
 

@@ -5,6 +5,28 @@
 
 namespace coins::nn {
 
+namespace {
+
+// the pair network of a split observation: the rows outside the instances are its source
+PairNetOptions PairOptions(const QNetOptions& o) {
+  const InstanceSplit& s = o.split;
+  PairNetOptions p;
+  p.source_dim = o.obs_dim - s.instances * s.instance_dim;
+  p.instance_dim = s.instance_dim;
+  p.max_instances = s.instances;
+  p.point_sizes = o.hidden;
+  p.output_dim = o.outputs;
+  p.hidden = o.hidden_act;
+  p.output = o.output_act;
+  for (RelativeFeature r : s.relative) {  // observation rows -> rows of the pair-net's source
+    if (r.source >= s.offset) r.source -= s.instances * s.instance_dim;
+    p.relative.push_back(r);
+  }
+  return p;
+}
+
+}  // namespace
+
 Status QNetOptions::Validate() const {
   if (obs_dim <= 0 || outputs <= 0) return Errorf("network: obs_dim {} and outputs {} must be > 0", obs_dim, outputs);
   if (hidden.empty()) return Errorf("network: at least one hidden layer");
@@ -25,7 +47,7 @@ Status QNetOptions::Validate() const {
     if (r.instance < 0 || r.instance >= s.instance_dim)
       return Errorf("network: relative feature {} reads instance row {} of {}", k, r.instance, s.instance_dim);
   }
-  return Status::Ok();
+  return PairOptions(*this).Validate();  // the rest (finite scale and shift, layer sizes)
 }
 
 QNet::QNet(QNetOptions options, uint64_t seed) : options_(std::move(options)) {
@@ -36,20 +58,7 @@ QNet::QNet(QNetOptions options, uint64_t seed) : options_(std::move(options)) {
             seed);
     return;
   }
-  const InstanceSplit& s = options_.split;
-  PairNetOptions p;
-  p.source_dim = options_.obs_dim - s.instances * s.instance_dim;
-  p.instance_dim = s.instance_dim;
-  p.max_instances = s.instances;
-  p.point_sizes = options_.hidden;
-  p.output_dim = options_.outputs;
-  p.hidden = options_.hidden_act;
-  p.output = options_.output_act;
-  for (RelativeFeature r : s.relative) {  // observation rows -> rows of the pair-net's source
-    if (r.source >= s.offset) r.source -= s.instances * s.instance_dim;
-    p.relative.push_back(r);
-  }
-  pair_ = PairNet(p, seed);
+  pair_ = PairNet(PairOptions(options_), seed);
 }
 
 const Eigen::MatrixXf& QNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>& obs) {

@@ -1,6 +1,8 @@
 // QNet: the observation split into a pair network's source, instances and presence mask.
 #include "common/nn/qnet.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 namespace coins::nn {
@@ -104,6 +106,8 @@ TEST(QNet, WithoutASplitItIsAnMlpAndBadSplitsAreRefused) {
   EXPECT_NE(bad.Validate().message().find("relative feature 0 reads observation row 5"), std::string::npos);
   bad.split.relative = {{1, 4, 1.0f, 0.0f}};
   EXPECT_NE(bad.Validate().message().find("reads instance row 4 of 4"), std::string::npos);
+  bad.split.relative = {{1, 0, std::nanf(""), 0.0f}};  // the pair network's own rules apply too
+  EXPECT_NE(bad.Validate().message().find("relative feature 0 has scale nan"), std::string::npos);
 }
 
 }  // namespace

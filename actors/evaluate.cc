@@ -29,6 +29,22 @@ void Summarise(EvalResult* r) {
   r->return_sd = std::sqrt(sq / double(r->returns.size()));
 }
 
+// one tally per discrete goal of the level's space; none for other goal spaces
+std::vector<GoalTally> DiscreteGoalTallies(const HierarchyModels& models, int level) {
+  std::vector<GoalTally> tallies;
+  const LevelModel* m = models.at(level);
+  if (!m || m->spec().goal.kind != policy::GoalKind::kDiscrete) return tallies;
+  for (const auto& g : m->spec().goal.goals) tallies.push_back({g, 0, 0, 0});
+  return tallies;
+}
+
+// the tally of a goal in force (the space's goals are exact values), or null
+GoalTally* TallyOf(std::vector<GoalTally>& tallies, std::span<const float> goal) {
+  for (GoalTally& t : tallies)
+    if (std::equal(t.goal.begin(), t.goal.end(), goal.begin(), goal.end())) return &t;
+  return nullptr;
+}
+
 }  // namespace
 
 Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int acting, const EvalOptions& o,
@@ -48,6 +64,9 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   const int skill_level = task ? acting - 1 : acting;  // < 1: no skill's goals to count
   const HierarchyCounters& counts = runner.counters();
   auto ended = [&] { return skill_level >= 1 ? counts.goals_ended[skill_level - 1] : 0; };
+  std::vector<GoalTally> tallies = DiscreteGoalTallies(models, skill_level);
+  std::vector<float> goal_in_force;
+  goal_in_force.reserve(size_t(env.spec().state_dim()));
   // a skill is evaluated until its goal (or step) budget is spent, over as many episodes as that
   // takes; each starts from a fresh Reset, and those the env ended count their returns
   bool budget_spent = false;
@@ -63,10 +82,21 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       const auto t1 = Clock::now();
       COINS_RETURN_IF_ERROR(env.Step(action, next, &sr).WithContext("evaluate"));
       const auto t2 = Clock::now();
+      const std::span<const float> g = tallies.empty() ? std::span<const float>() : runner.goal(skill_level);
+      goal_in_force.assign(g.begin(), g.end());
+      const uint64_t ended_before = ended();
+      const uint64_t interacted_before = skill_level >= 1 ? counts.goals_interacted[skill_level - 1] : 0;
+      const uint64_t reached_before = skill_level >= 1 ? counts.goals_reached[skill_level - 1] : 0;
       runner.Observe(state, action, next, sr.reward, sr.done || sr.truncated, sr.truncated, sr.interactions, &rows);
       r.control_seconds += Seconds(t0, Clock::now());
       r.env_seconds += Seconds(t1, t2);
-      if (on_step) on_step({ep, state, action, next, &sr});
+      if (ended() != ended_before)
+        if (GoalTally* tally = TallyOf(tallies, goal_in_force)) {
+          tally->ended += ended() - ended_before;
+          tally->interacted += counts.goals_interacted[skill_level - 1] - interacted_before;
+          tally->reached += counts.goals_reached[skill_level - 1] - reached_before;
+        }
+      if (on_step) on_step({ep, state, action, next, &sr, goal_in_force});
       ret += sr.reward;
       ++r.steps;
       if (task && sr.done) ++r.episodes_done;
@@ -87,6 +117,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
     r.success = r.goals_ended ? double(r.goals_reached) / double(r.goals_ended) : 0.0;
     r.hit_rate = r.goals_ended ? double(r.goals_interacted) / double(r.goals_ended) : 0.0;
     r.accuracy = r.goals_interacted ? double(r.goals_reached) / double(r.goals_interacted) : 0.0;
+    r.by_goal = std::move(tallies);
   }
   Summarise(&r);
   return r;

@@ -14,7 +14,8 @@
 // is the fraction reached (for a link whose skill needs an interaction: reached at an
 // interaction, the ball-angle accuracy in Breakout). The returns are those of the episodes the
 // env ended (how the skill with random goals plays the task; the budget's last, cut episode is
-// left out).
+// left out). A skill with discrete goals (the ball's four angles) is also counted per goal: the
+// goal in force when an attempt ended (the random goal, or the task's request).
 #pragma once
 
 #include <cstdint>
@@ -36,6 +37,12 @@ struct EvalOptions {
   float goal_sample_ratio = -1.0f;
 };
 
+// the attempts at one discrete goal of the counted skill
+struct GoalTally {
+  std::vector<float> goal;  // masked values, as the skill's goal space lists it
+  uint64_t ended = 0, interacted = 0, reached = 0;
+};
+
 struct EvalResult {
   std::vector<double> returns;  // one per episode (a skill: per episode the env ended)
   double return_mean = 0, return_sd = 0;
@@ -47,6 +54,9 @@ struct EvalResult {
   double success = 0;   // goals_reached / goals_ended
   double hit_rate = 0;  // goals_interacted / goals_ended
   double accuracy = 0;  // goals_reached / goals_interacted (the angle, given a bounce)
+  // a skill with discrete goals: one tally per goal of its space, in order (their counts sum to
+  // goals_ended, goals_interacted, goals_reached); otherwise empty
+  std::vector<GoalTally> by_goal;
   int64_t steps = 0;
   int64_t episodes_done = 0;  // task: episodes the env ended as terminal (EnvSpec::done_means)
   int64_t penalty_steps = 0;  // task: steps whose reward was a penalty (EnvSpec::penalty_means)
@@ -60,6 +70,7 @@ struct EvalStep {
   int episode = 0;
   std::span<const float> state, action, next;
   const envs::StepResult* result = nullptr;
+  std::span<const float> goal;  // a skill with discrete goals: the goal in force at this step (masked values)
 };
 
 Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int acting, const EvalOptions& options,

@@ -324,6 +324,49 @@ TEST(Evaluate, GoalsCutByAWonEpisodeEndAreNotAttemptsAndEndedEpisodesGiveTheRetu
   EXPECT_TRUE(sums.size() == ended.size() || sums.size() == ended.size() + 1) << sums.size();
 }
 
+// a skill with discrete goals is counted per goal: the tallies follow the goal space's order,
+// sum to the totals, each goal gets attempts, and a goal counts as reached exactly when the step
+// under it ends with the ball at that velocity (no interaction needed here; so goals that an
+// episode's end cuts are not attempts, and the easily reached goals have more of them)
+TEST(Evaluate, DiscreteGoalsAreCountedPerGoal) {
+  auto env = envs::MakeEnv("breakout");
+  ASSERT_TRUE(env.ok()) << env.status().message();
+  const envs::EnvSpec& spec = (*env)->spec();
+  const policy::LevelSpec ball = Ball(spec);
+  const HierarchyModels models = Models({Paddle(spec), ball});
+  EvalOptions o;
+  o.episodes = 400;  // goals
+  o.max_steps = 1'000'000;
+  o.seed = 9;
+  const int vy = spec.factor_offset(spec.factor_index("Ball")) + 2;
+  std::vector<uint64_t> reached_steps(ball.goal.goals.size(), 0);
+  auto r = Evaluate(**env, models, 2, o, [&](const EvalStep& s) {
+    for (size_t k = 0; k < ball.goal.goals.size(); ++k)
+      if (std::equal(s.goal.begin(), s.goal.end(), ball.goal.goals[k].begin(), ball.goal.goals[k].end()) &&
+          s.next[size_t(vy)] == ball.goal.goals[k][0] && s.next[size_t(vy) + 1] == ball.goal.goals[k][1])
+        ++reached_steps[k];
+  });
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  ASSERT_EQ(r->by_goal.size(), ball.goal.goals.size());
+  uint64_t ended = 0, reached = 0, interacted = 0;
+  for (size_t k = 0; k < r->by_goal.size(); ++k) {
+    const GoalTally& t = r->by_goal[k];
+    EXPECT_EQ(t.goal, ball.goal.goals[k]);
+    EXPECT_GT(t.ended, 20u) << "goal " << k << " of 400 random goals";
+    EXPECT_EQ(t.reached, reached_steps[k]) << "goal " << k;
+    ended += t.ended, reached += t.reached, interacted += t.interacted;
+  }
+  EXPECT_EQ(ended, r->goals_ended);
+  EXPECT_EQ(reached, r->goals_reached);
+  EXPECT_EQ(interacted, r->goals_interacted);
+  EXPECT_GT(reached, 0u) << "random paddle moves bounce the ball up now and then";
+
+  // a skill with continuous goals has no per-goal counts
+  auto paddle = Evaluate(**env, models, 1, o);
+  ASSERT_TRUE(paddle.ok());
+  EXPECT_TRUE(paddle->by_goal.empty());
+}
+
 // acting 0: uniform random primitive actions, evaluated as a task (the reference of the
 // experiment tables): every episode counts, each return is the sum of its rewards, and the same
 // seed gives the same episodes

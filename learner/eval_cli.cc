@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "actors/envs/env.h"
@@ -102,6 +103,32 @@ nlohmann::json TaskWeights(const LearnerCore& core, bool best) {
   return {{"weights", "best"}, {"env_steps", b->env_steps}, {"return_mean", b->return_mean}};
 }
 
+double Fraction(uint64_t part, uint64_t whole) { return whole ? double(part) / double(whole) : 0.0; }
+
+// per discrete goal of the counted skill: attempts, success, and for an interaction skill the
+// hit rate and the accuracy given a hit (the ball: by requested angle)
+nlohmann::json ByGoalJson(const std::vector<GoalTally>& by_goal, bool interaction) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const GoalTally& t : by_goal) {
+    nlohmann::json e = {{"goal", t.goal}, {"goals", t.ended}, {"success", Fraction(t.reached, t.ended)}};
+    e["hit_rate"] = interaction ? nlohmann::json(Fraction(t.interacted, t.ended)) : nlohmann::json(nullptr);
+    e["accuracy"] = interaction ? nlohmann::json(Fraction(t.reached, t.interacted)) : nlohmann::json(nullptr);
+    list.push_back(e);
+  }
+  return list;
+}
+
+void PrintByGoal(const std::vector<GoalTally>& by_goal, const policy::LevelSpec& skill) {
+  for (const GoalTally& t : by_goal) {
+    std::string line = fmt::format("    goal [{}]: {} goals, {:.1f}% reached", fmt::join(t.goal, ", "), t.ended,
+                                   100.0 * Fraction(t.reached, t.ended));
+    if (skill.require_interaction)
+      line += fmt::format(", {:.1f}% with an interaction, {:.1f}% of them at the goal",
+                          100.0 * Fraction(t.interacted, t.ended), 100.0 * Fraction(t.reached, t.interacted));
+    std::cout << line << "\n";
+  }
+}
+
 void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::EnvSpec& es, int level,
                const policy::LevelSpec& spec, const policy::LevelSpec& skill, const EvalResult& r,
                const nlohmann::json& task_weights) {
@@ -127,6 +154,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
   if (spec.is_task()) j["task_weights"] = task_weights;
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
+  j["by_goal"] = ByGoalJson(r.by_goal, skill.require_interaction);
   const bool task = spec.is_task();
   j["done_fraction"] = task && !es.done_means.empty() && !r.returns.empty()
                            ? nlohmann::json(double(r.episodes_done) / double(r.returns.size()))
@@ -183,6 +211,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
     std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
                              100.0 * r.hit_rate, 100.0 * r.accuracy)
               << "\n";
+  PrintByGoal(r.by_goal, skill);
   if (r.control_seconds > 0 && r.env_seconds > 0)
     std::cout << fmt::format(
                      "  speed: {:.0f} control steps/s with every level acting (one thread), the env's step "

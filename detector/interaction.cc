@@ -249,8 +249,28 @@ PairScores PairDetector::Score(const TransitionSet& data) {
                          r.interactions, options_.chance_ratio, r.chance_interactions);
   }
   r.pass = r.score > options_.eps_si;
-  if (hits.empty()) return r;
+  MaskAndGoals(data, d, hits, &r);
+  return r;
+}
 
+void PairDetector::Characterize(const TransitionSet& data, PairScores* r) {
+  if (!trained()) return;
+  const Detection d = Detect(data, /*all_instances=*/false);
+  std::vector<int64_t> hits;
+  for (int64_t j = 0; j < int64_t(d.h.size()); ++j)
+    if (d.h[j]) hits.push_back(j);
+  MaskAndGoals(data, d, hits, r);
+}
+
+void PairDetector::MaskAndGoals(const TransitionSet& data, const Detection& d, const std::vector<int64_t>& hits,
+                                PairScores* out) {
+  const PairLayout& L = layout_;
+  PairScores& r = *out;
+  r.goal_interactions = int64_t(hits.size());
+  r.mask.assign(size_t(L.target_features), 0);
+  r.mask_diff.assign(size_t(L.target_features), 0.0f);
+  r.goals = GoalSet();
+  if (hits.empty()) return;
   // eq. 10: mean deviation of the post-interaction value from the passive prediction
   Eigen::MatrixXf hit_in(L.passive_input_dim(), hits.size()), mean;
   for (size_t i = 0; i < hits.size(); ++i) hit_in.col(i) = d.samples.passive_in.col(hits[i]);
@@ -293,6 +313,13 @@ PairScores PairDetector::Score(const TransitionSet& data) {
     for (size_t q = 0; q < feats.size(); ++q) values(q, i) = s2[base + feats[q]];
   }
   r.goals = BuildGoalSet(feats, values, half, options_);
+}
+
+PairScores ScoreRound(PairDetector& det, const TransitionSet& train, const TransitionSet& held_out) {
+  PairScores r = det.Score(held_out);
+  TransitionSet all = train;
+  all.AppendAll(held_out);
+  det.Characterize(all, &r);
   return r;
 }
 

@@ -15,6 +15,10 @@
 // min_interactions), the control mask (eq. 10, options.mask_rule) and the goal set;
 // pass = Sc_I > eps_si. Score the models on data they did not train on (RunDetect holds out
 // the tail of its data).
+// Characterize: the mask and goal set again, from the detections in other data. A held-out
+// share may hold too few interactions to show every goal (a detect round soon after a skill was
+// learned: 13-16 bounces, one of the four angles missing or vx left out of the mask); the
+// learner's rounds characterize on all their data and score Sc_I on the held-out share alone.
 // Multi-instance targets share one model pair over instances, so a class is scored as one
 // target; a transition interacts when any of its instances does.
 // A PairDetector is used by one thread at a time (the models keep workspaces).
@@ -53,7 +57,8 @@ struct PairScores {
   std::vector<float> mask_diff;  // d_k of eq. 10 (normalised units)
   std::vector<std::string> feature_names;
   GoalSet goals;
-  std::string note;  // why the pair was not trained, when it was not
+  int64_t goal_interactions = 0;  // the detections the mask and the goal set came from
+  std::string note;               // why the pair was not trained, when it was not
 };
 
 struct PairEvaluation {
@@ -94,6 +99,8 @@ class PairDetector {
 
   Detection Detect(const TransitionSet& data, bool all_instances);
   PairScores Score(const TransitionSet& data);
+  // replaces r's mask, mask_diff, goals and goal_interactions with those of the detections in data
+  void Characterize(const TransitionSet& data, PairScores* r);
   // detections per transition against the env's labels (all instances of a class)
   PairEvaluation Evaluate(const envs::EnvSpec& spec, const TransitionSet& data);
   // one flag per transition: some sample of it is an interaction (what the learner labels)
@@ -113,11 +120,16 @@ class PairDetector {
   // the active model's log-likelihood of the samples `at` with the source (and relative
   // positions) of randomly drawn other samples: at.size() x counterfactual_draws
   Eigen::MatrixXf ActiveLlWithOtherSources(const Detection& d, const std::vector<int64_t>& at);
+  // eq. 10's mask and the goal set of the detected samples `hits` of d (detections on data)
+  void MaskAndGoals(const TransitionSet& data, const Detection& d, const std::vector<int64_t>& hits, PairScores* r);
 
   PairLayout layout_;
   DetectorOptions options_;
   GaussianModel passive_, active_;
   TrainStats stats_;
 };
+
+// det.Score(held_out), then det.Characterize(train and held_out together)
+PairScores ScoreRound(PairDetector& det, const TransitionSet& train, const TransitionSet& held_out);
 
 }  // namespace coins::detector

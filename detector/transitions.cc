@@ -35,6 +35,14 @@ TransitionSet TransitionSet::Slice(int64_t begin, int64_t end) const {
   return out;
 }
 
+void TransitionSet::AppendAll(const TransitionSet& other) {
+  assert(other.state_dim_ == state_dim_ && other.action_dim_ == action_dim_);
+  Reserve(size() + other.size());
+  for (int64_t t = 0; t < other.size(); ++t) {
+    Append(other.state(t), other.action(t), other.next_state(t), other.bits_[t], t == 0 || other.starts_[t]);
+  }
+}
+
 int InteractionBit(const envs::EnvSpec& spec, const std::string& source, const std::string& target) {
   for (size_t i = 0; i < spec.interactions.size(); ++i) {
     if (spec.interactions[i].source == source && spec.interactions[i].target == target) {

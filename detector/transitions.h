@@ -42,6 +42,8 @@ class TransitionSet {
   uint32_t interactions(int64_t t) const { return bits_[t]; }
   bool episode_start(int64_t t) const { return starts_[t] != 0; }
 
+  // appends every transition of other (same dims; asserted); its first starts an episode
+  void AppendAll(const TransitionSet& other);
   // transitions [begin, end) as a new set
   TransitionSet Slice(int64_t begin, int64_t end) const;
 

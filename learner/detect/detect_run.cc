@@ -157,6 +157,7 @@ void AddScores(const PairScores& s, nlohmann::json& j) {
     j["goal_counts"] = s.goals.counts;
   }
   j["goal_unique_raw"] = s.goals.raw_unique;
+  j["goal_interactions"] = s.goal_interactions;
   j["pass"] = s.pass;
   if (!s.note.empty()) j["note"] = s.note;
 }
@@ -196,7 +197,7 @@ Result<nlohmann::json> DetectTarget(const DetectRequest& req, const envs::EnvSpe
   if (!det.ok()) return det.status();
   const double train_s = Seconds(t1);
   auto t2 = std::chrono::steady_clock::now();
-  PairScores s = det->Score(scored);
+  PairScores s = ScoreRound(*det, train, scored);
   const double score_s = Seconds(t2);
   nlohmann::json j;
   j["target"] = target;

@@ -115,6 +115,21 @@ TEST(BreakoutDetector, PaddleBallPassesWithVelocityMaskAndTheFourBounces) {
   const std::set<std::pair<float, float>> bounces = {{-1, -1}, {-2, -1}, {-2, 1}, {-1, 1}};
   EXPECT_EQ(goals, bounces);
 
+  // a detect round's report: Sc_I from its held-out share, the mask and the goal set from every
+  // detection of the round. A small share alone holds too few bounces to show the goal set.
+  const TransitionSet small = fresh.Slice(0, 3000);
+  const PairScores share = det->Score(small);
+  EXPECT_EQ(share.goal_interactions, share.interactions);
+  EXPECT_LT(share.goals.goals.size(), 4u) << share.interactions << " detections in the small share";
+  const PairScores round = ScoreRound(*det, train, small);
+  EXPECT_EQ(round.score, share.score);
+  EXPECT_EQ(round.interactions, share.interactions);
+  EXPECT_EQ(round.goal_interactions, det->Score(train).interactions + share.interactions);
+  EXPECT_EQ(round.mask, (std::vector<int>{0, 0, 1, 1, 0}));
+  std::set<std::pair<float, float>> round_goals;
+  for (const auto& g : round.goals.goals) round_goals.insert({g[0], g[1]});
+  EXPECT_EQ(round_goals, bounces);
+
   // against the simulator's labels on the fresh data
   const PairEvaluation e = det->Evaluate(spec, fresh);
   ASSERT_TRUE(e.has_truth);

@@ -106,7 +106,7 @@ Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const e
     });
     if (!det.ok()) return det.status().WithContext(source_factor + "->" + target);
     o.tick();
-    const detector::PairScores scores = det->Score(data->held_out);
+    const detector::PairScores scores = detector::ScoreRound(*det, data->train, data->held_out);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     DetectedTarget t;
     t.score = ToScoreMessage(scores, env, seconds);

@@ -116,11 +116,10 @@ TEST(BreakoutDetector, PaddleBallPassesWithVelocityMaskAndTheFourBounces) {
   EXPECT_EQ(goals, bounces);
 
   // a detect round's report: Sc_I from its held-out share, the mask and the goal set from every
-  // detection of the round. A small share alone holds too few bounces to show the goal set.
+  // detection of the round (a small share alone holds a few bounces: too few to show every goal)
   const TransitionSet small = fresh.Slice(0, 3000);
   const PairScores share = det->Score(small);
   EXPECT_EQ(share.goal_interactions, share.interactions);
-  EXPECT_LT(share.goals.goals.size(), 4u) << share.interactions << " detections in the small share";
   const PairScores round = ScoreRound(*det, train, small);
   EXPECT_EQ(round.score, share.score);
   EXPECT_EQ(round.interactions, share.interactions);

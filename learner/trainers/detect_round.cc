@@ -4,6 +4,8 @@
 #include <chrono>
 #include <unordered_set>
 
+#include <spdlog/spdlog.h>
+
 #include "common/process.h"
 #include "common/splitmix.h"
 #include "detector/pair_space.h"
@@ -107,6 +109,8 @@ Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const e
     if (!det.ok()) return det.status().WithContext(source_factor + "->" + target);
     o.tick();
     const detector::PairScores scores = detector::ScoreRound(*det, data->train, data->held_out);
+    spdlog::info("{}->{}: Sc_I {:.2f} from {} held-out detections; mask and goal set from {} detections", source_factor,
+                 target, scores.score, scores.interactions, scores.goal_interactions);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     DetectedTarget t;
     t.score = ToScoreMessage(scores, env, seconds);

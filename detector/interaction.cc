@@ -315,11 +315,10 @@ void PairDetector::MaskAndGoals(const TransitionSet& data, const Detection& d, c
   r.goals = BuildGoalSet(feats, values, half, options_);
 }
 
-PairScores ScoreRound(PairDetector& det, const TransitionSet& train, const TransitionSet& held_out) {
+PairScores ScoreRound(PairDetector& det, TransitionSet train, const TransitionSet& held_out) {
   PairScores r = det.Score(held_out);
-  TransitionSet all = train;
-  all.AppendAll(held_out);
-  det.Characterize(all, &r);
+  train.AppendAll(held_out);
+  det.Characterize(train, &r);
   return r;
 }
 

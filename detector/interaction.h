@@ -129,7 +129,8 @@ class PairDetector {
   TrainStats stats_;
 };
 
-// det.Score(held_out), then det.Characterize(train and held_out together)
-PairScores ScoreRound(PairDetector& det, const TransitionSet& train, const TransitionSet& held_out);
+// det.Score(held_out), then det.Characterize(train and held_out together); train is taken by
+// value so that a caller done with it moves it in instead of copying it
+PairScores ScoreRound(PairDetector& det, TransitionSet train, const TransitionSet& held_out);
 
 }  // namespace coins::detector

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <unordered_set>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
@@ -108,7 +109,7 @@ Result<std::vector<DetectedTarget>> RunDetectRound(SampleSource* source, const e
     });
     if (!det.ok()) return det.status().WithContext(source_factor + "->" + target);
     o.tick();
-    const detector::PairScores scores = detector::ScoreRound(*det, data->train, data->held_out);
+    const detector::PairScores scores = detector::ScoreRound(*det, std::move(data->train), data->held_out);
     spdlog::info("{}->{}: Sc_I {:.2f} from {} held-out detections; mask and goal set from {} detections", source_factor,
                  target, scores.score, scores.interactions, scores.goal_interactions);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

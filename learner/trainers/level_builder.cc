@@ -34,13 +34,12 @@ void AddRelative(const envs::EnvSpec& env, int fa, int fb, LevelSpec* s) {
   if (fa < 0 || fb < 0) return;
   const envs::FactorSpec &a = env.factors[size_t(fa)], &b = env.factors[size_t(fb)];
   const int oa = env.factor_offset(fa), ob = env.factor_offset(fb);
-  auto pos = [&](int full) { return ObsRow(*s, full); };
   for (int i = 0; i < a.features; ++i) {
     const std::string& n = a.feature_names[size_t(i)];
     if (n != "x" && n != "y" && n != "z") continue;
     for (int j = 0; j < b.features; ++j)
       if (b.feature_names[size_t(j)] == n) {
-        s->relative.emplace_back(pos(oa + i), pos(ob + j));
+        s->relative.emplace_back(ObsRow(*s, oa + i), ObsRow(*s, ob + j));
         s->relative_scale.push_back(0.5f * (b.high[size_t(j)] - b.low[size_t(j)]));
       }
   }

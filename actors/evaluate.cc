@@ -52,6 +52,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   if (acting < 0 || acting > models.contiguous()) return Errorf("evaluate: level {} has no model", acting);
   // acting 0, uniform random primitive actions, is evaluated as a task: whole episodes
   const bool task = acting == 0 || models.at(acting)->spec().is_task();
+  const bool whole_episodes = task || o.skill_plays_task;
   int action_dim = 1, goal_dim = 0;
   Actor::RowWidths(env.spec(), &action_dim, &goal_dim);
   HierarchyRunner runner(env.spec(), action_dim, goal_dim, o.seed ^ 0x6576616cULL);
@@ -70,7 +71,7 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
   // a skill is evaluated until its goal (or step) budget is spent, over as many episodes as that
   // takes; each starts from a fresh Reset, and those the env ended count their returns
   bool budget_spent = false;
-  for (int ep = 0; !budget_spent && ep < (task ? o.episodes : 1 << 30); ++ep) {
+  for (int ep = 0; !budget_spent && ep < (whole_episodes ? o.episodes : 1 << 30); ++ep) {
     env.Reset(o.seed + uint64_t(ep), state);
     runner.StartEpisode(state, &rows);
     double ret = 0;
@@ -99,15 +100,16 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
       if (on_step) on_step({ep, state, action, next, &sr, goal_in_force});
       ret += sr.reward;
       ++r.steps;
-      if (task && sr.done) ++r.episodes_done;
-      if (task && !env.spec().penalty_means.empty() && sr.reward <= env.spec().penalty_reward) ++r.penalty_steps;
+      if (whole_episodes && sr.done) ++r.episodes_done;
+      if (whole_episodes && !env.spec().penalty_means.empty() && sr.reward <= env.spec().penalty_reward)
+        ++r.penalty_steps;
       over = sr.done || sr.truncated;
       std::swap(state, next);
-      budget_spent = !task && (ended() >= uint64_t(o.episodes) || r.steps >= o.max_steps);
+      budget_spent = !whole_episodes && (ended() >= uint64_t(o.episodes) || r.steps >= o.max_steps);
       if (budget_spent) break;
     }
-    // a task episode counts however it ended; a skill's only when the env ended it
-    if (task || over) r.returns.push_back(ret);
+    // a whole episode counts however it ended; a skill's cut by its goal budget only when the env ended it
+    if (whole_episodes || over) r.returns.push_back(ret);
   }
   if (skill_level >= 1) {
     r.goals_ended = ended();

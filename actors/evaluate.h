@@ -16,6 +16,10 @@
 // env ended (how the skill with random goals plays the task; the budget's last, cut episode is
 // left out). A skill with discrete goals (the ball's four angles) is also counted per goal: the
 // goal in force when an attempt ended (the random goal, or the task's request).
+// Skill playing the task (`skill_plays_task`): the skill acts on its random goals for `episodes`
+// whole episodes, each cut at max_steps, as a task would be evaluated: the return of a chain
+// before any task policy chooses its goals (how the paper scores its Breakout skill). Its goals
+// are counted as above.
 #pragma once
 
 #include <cstdint>
@@ -35,6 +39,7 @@ struct EvalOptions {
   float task_explore = 0.0f;  // epsilon of a task level (see above)
   // a skill's random goals: drawn with this sample ratio (policy::RandomGoal); negative: its own
   float goal_sample_ratio = -1.0f;
+  bool skill_plays_task = false;  // a skill: whole episodes, as a task (see above)
 };
 
 // the attempts at one discrete goal of the counted skill
@@ -58,8 +63,9 @@ struct EvalResult {
   // goals_ended, goals_interacted, goals_reached); otherwise empty
   std::vector<GoalTally> by_goal;
   int64_t steps = 0;
-  int64_t episodes_done = 0;  // task: episodes the env ended as terminal (EnvSpec::done_means)
-  int64_t penalty_steps = 0;  // task: steps whose reward was a penalty (EnvSpec::penalty_means)
+  int64_t episodes_done =
+      0;  // whole episodes (a task, a skill playing it): those the env ended as terminal (EnvSpec::done_means)
+  int64_t penalty_steps = 0;  // whole episodes: steps whose reward was a penalty (EnvSpec::penalty_means)
   // wall seconds of the control steps (the hierarchy's decisions, env.Step, the detector and
   // goal bookkeeping; not the recorder), and of env.Step alone within them
   double control_seconds = 0, env_seconds = 0;

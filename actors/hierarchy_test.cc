@@ -367,6 +367,43 @@ TEST(Evaluate, DiscreteGoalsAreCountedPerGoal) {
   EXPECT_TRUE(paddle->by_goal.empty());
 }
 
+// a skill playing the task: whole episodes as a task would be evaluated (every episode counts,
+// the budget is per episode, not in goals), its goals still counted; the same skill under a goal
+// budget only keeps the episodes the env ended
+TEST(Evaluate, ASkillPlayingTheTaskPlaysWholeEpisodesAndCountsItsGoals) {
+  auto env = envs::MakeEnv("breakout-single");
+  ASSERT_TRUE(env.ok());
+  const envs::EnvSpec& spec = (*env)->spec();
+  policy::LevelSpec ball = Ball(spec);
+  ball.require_interaction = ball.terminate_on_interaction = true;
+  const HierarchyModels models = Models({Paddle(spec), ball});
+  EvalOptions o;
+  o.episodes = 12;
+  o.max_steps = 40;  // per episode: a served ball drops after about 36 steps; one bounced up is cut here
+  o.seed = 4;
+  o.skill_plays_task = true;
+  std::vector<double> sums(size_t(o.episodes), 0.0);
+  std::vector<int64_t> lengths(size_t(o.episodes), 0);
+  int terminal = 0;
+  auto r = Evaluate(**env, models, 2, o, [&](const EvalStep& s) {
+    sums[size_t(s.episode)] += s.result->reward;
+    ++lengths[size_t(s.episode)];
+    terminal += s.result->done;
+  });
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->returns, sums) << "every episode, however it ended";
+  EXPECT_EQ(r->episodes_done, terminal);
+  EXPECT_GT(terminal, 0);
+  EXPECT_LT(terminal, o.episodes) << "some episodes run into the 40-step cut";
+  for (int64_t n : lengths) EXPECT_LE(n, o.max_steps);
+  EXPECT_GT(r->goals_ended, 0u) << "the skill's goals are counted as in a skill evaluation";
+  o.skill_plays_task = false;
+  o.max_steps = 100000;
+  auto budget = Evaluate(**env, models, 2, o);
+  ASSERT_TRUE(budget.ok());
+  EXPECT_EQ(budget->goals_ended, uint64_t(o.episodes)) << "a goal budget otherwise";
+}
+
 // acting 0: uniform random primitive actions, evaluated as a task (the reference of the
 // experiment tables): every episode counts, each return is the sum of its rewards, and the same
 // seed gives the same episodes

@@ -276,6 +276,9 @@ void LearnerCore::ClearEval() {
   status_.eval_success(0.0);
   status_.eval_angle_accuracy(0.0);
   status_.eval_hit_rate(0.0);
+  status_.eval_play_return_mean(0.0);
+  status_.eval_play_return_sd(0.0);
+  status_.eval_play_episodes(0);
 }
 
 Status LearnerCore::Evaluate(uint64_t env_steps) {
@@ -304,10 +307,29 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
       "eval of {} at {} env steps: return {:.2f} +- {:.2f}, success {:.3f}, hit rate {:.3f}, angle accuracy {:.3f}",
       spec.name, env_steps, r->return_mean, r->return_sd, r->success, status_.eval_hit_rate(),
       status_.eval_angle_accuracy());
+  COINS_RETURN_IF_ERROR(EvaluateSkillPlay(**env, **models, env_steps));
   if (spec.is_task() && !r->returns.empty() && (!best_task_ || r->return_mean > best_task_->return_mean)) {
     best_task_ = BestTask{train_level_, env_steps, r->return_mean, r->return_sd, trainer(train_level_)->ActingBlob()};
     spdlog::info("the best task policy so far: return {:.2f} at {} env steps", r->return_mean, env_steps);
   }
+  return Status::Ok();
+}
+
+Status LearnerCore::EvaluateSkillPlay(envs::Env& env, const HierarchyModels& models, uint64_t env_steps) {
+  status_.eval_play_episodes(0);
+  if (specs_[size_t(train_level_) - 1].is_task() || options_.eval_skill_episodes <= 0) return Status::Ok();
+  EvalOptions o;
+  o.episodes = int(options_.eval_skill_episodes);
+  o.max_steps = options_.eval_max_steps;
+  o.seed = seed_ + 104729 + env_steps;
+  o.skill_plays_task = true;
+  auto r = coins::Evaluate(env, models, train_level_, o);
+  if (!r.ok()) return r.status().WithContext("evaluation of the skill playing the task");
+  status_.eval_play_return_mean(r->return_mean);
+  status_.eval_play_return_sd(r->return_sd);
+  status_.eval_play_episodes(uint32_t(r->returns.size()));
+  spdlog::info("{} on random goals plays the task at {} env steps: return {:.2f} +- {:.2f} over {} episodes",
+               specs_[size_t(train_level_) - 1].name, env_steps, r->return_mean, r->return_sd, r->returns.size());
   return Status::Ok();
 }
 

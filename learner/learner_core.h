@@ -20,6 +20,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "actors/envs/env.h"
 #include "actors/hierarchy.h"
 #include "common/env_spec.h"
 #include "common/policy/level_spec.h"
@@ -119,6 +120,8 @@ class LearnerCore {
   Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Status Evaluate(uint64_t env_steps);
+  // a skill's evaluation: the skill on random goals plays eval_skill_episodes whole task episodes
+  Status EvaluateSkillPlay(envs::Env& env, const HierarchyModels& models, uint64_t env_steps);
   // a skill's training ended (the new command moves on): choose its weights
   int EndedSkill(const msg::ChainCommand& next) const;
   std::vector<SkillSnapshot> Candidates(int level) const;  // its snapshots and its final weights

@@ -116,6 +116,8 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
   v.Int("eval_every_steps", eval_every_steps, 1, int64_t(1) << 40, "env steps between evaluations");
   v.Int("eval_episodes", eval_episodes, 1, 100000, "task episodes per evaluation");
   v.Int("eval_goals", eval_goals, 1, 1000000, "skill goals per evaluation");
+  v.Int("eval_skill_episodes", eval_skill_episodes, 0, 100000,
+        "task episodes a skill plays on random goals per evaluation (0: none)");
   v.Int("eval_max_steps", eval_max_steps, 1, int64_t(1) << 30, "env steps per evaluation episode at most");
   v.Float("eval_task_explore", eval_task_explore, 0, 1,
           "task epsilon in evaluations (a sac task samples its policy when > 0)");

@@ -82,6 +82,9 @@ struct LearnerOptions {
   int64_t eval_every_steps = 20000;
   int64_t eval_episodes = 20;
   int64_t eval_goals = 100;
+  // a skill's evaluation also lets it play this many whole task episodes on random goals (the
+  // chain's return before a task policy, as the paper scores its Breakout skill; 0: off)
+  int64_t eval_skill_episodes = 20;
   int64_t eval_max_steps = 20000;  // env steps at most per evaluation episode
   // the task level's epsilon in evaluations (skills are evaluated greedily): breaks the cycles
   // a greedy task policy can fall into in a deterministic env (actors/evaluate.h)

@@ -252,7 +252,10 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
   namespace fs = std::filesystem;
   const double wall_s = progress.elapsed() + (progress.metrics() ? progress.metrics()->wall_offset() : 0.0);
   nlohmann::json summary = RunSummary(view, wall_s, sup.restarts());
-  if (progress.metrics()) summary["evals"] = EvalMilestones(progress.metrics()->evals(), c.run.report_returns);
+  if (progress.metrics()) {
+    summary["evals"] = EvalMilestones(progress.metrics()->evals(), c.run.report_returns);
+    summary["skill_evals"] = EvalMilestones(progress.metrics()->skill_evals(), c.run.report_returns);
+  }
   if (nlohmann::json choices = SkillChoicesOf(c.run.dir); !choices.is_null()) summary["skill_choices"] = choices;
   std::cout << FormatSummary(summary);
   std::ofstream(fs::path(c.run.dir) / "summary.json") << summary.dump(1) << "\n";

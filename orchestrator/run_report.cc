@@ -72,6 +72,9 @@ std::string ChainProgress(const StatusView& v, int64_t restarts) {
     s += fmt::format(" | {}->{} {:.2f} {:.2f}{}", l.source(), l.target(), l.score(), l.skill_success(),
                      l.state() == "training" ? "*" : "");
   if (c.eval_env_steps()) s += fmt::format(" | eval {:.1f}+-{:.1f}", c.eval_return_mean(), c.eval_return_sd());
+  if (v.learner && v.learner->sample.eval_play_episodes())
+    s += fmt::format(" | skill plays {:.1f}+-{:.1f}", v.learner->sample.eval_play_return_mean(),
+                     v.learner->sample.eval_play_return_sd());
   if (v.learner)
     s += fmt::format(" | lag {:.1f} | {:.0f} upd/s", v.learner->sample.lag_median(), v.learner->sample.updates_per_s());
   return s + fmt::format(" | epoch {} | restarts {}", c.epoch(), restarts);
@@ -90,6 +93,9 @@ MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64
     r.greedy_success = v.learner->sample.eval_success();
     r.greedy_hit_rate = v.learner->sample.eval_hit_rate();
     r.greedy_angle_accuracy = v.learner->sample.eval_angle_accuracy();
+    r.play_mean = v.learner->sample.eval_play_return_mean();
+    r.play_sd = v.learner->sample.eval_play_return_sd();
+    r.play_episodes = v.learner->sample.eval_play_episodes();
   }
   if (v.chain) {
     const msg::ChainStatus& c = v.chain->sample;
@@ -156,17 +162,35 @@ std::optional<EvalPoint> ParseEvalRow(const std::string& row) {
   return e;
 }
 
+namespace {
+
+// the evaluations of a resumed run's eval.csv or skill_eval.csv, in order of env steps
+std::vector<EvalPoint> ResumedEvals(const fs::path& file) {
+  std::vector<EvalPoint> evals;
+  for (const std::string& row : ResumedRows(file, kEvalHeader))
+    if (auto e = ParseEvalRow(row); e && (evals.empty() || e->env_steps > evals.back().env_steps)) evals.push_back(*e);
+  return evals;
+}
+
+// a new evaluation (newer than the last) as a row of its file
+void AppendEval(std::ofstream& out, std::vector<EvalPoint>& evals, const EvalPoint& e) {
+  if (!evals.empty() && e.env_steps <= evals.back().env_steps) return;
+  out << fmt::format("{},{:.4f},{:.4f},{:.2f}\n", e.env_steps, e.mean, e.sd, e.wall_s);
+  evals.push_back(e);
+}
+
+}  // namespace
+
 Result<RunMetrics> RunMetrics::Open(const std::string& dir, bool resume) {
   RunMetrics m;
   m.dir_ = dir;
   const fs::path csv = fs::path(dir) / "metrics.csv", jsonl = fs::path(dir) / "metrics.jsonl",
-                 eval = fs::path(dir) / "eval.csv";
+                 eval = fs::path(dir) / "eval.csv", skill_eval = fs::path(dir) / "skill_eval.csv";
   if (resume) {
     const std::vector<std::string> rows = ResumedRows(csv, MetricsHeader());
     if (!rows.empty()) m.wall_offset_ = std::strtod(rows.back().c_str(), nullptr);
-    for (const std::string& row : ResumedRows(eval, kEvalHeader))
-      if (auto e = ParseEvalRow(row); e && (m.evals_.empty() || e->env_steps > m.evals_.back().env_steps))
-        m.evals_.push_back(*e);
+    m.evals_ = ResumedEvals(eval);
+    m.skill_evals_ = ResumedEvals(skill_eval);
     if (fs::exists(jsonl)) CompleteLines(jsonl);
   }
   // a resumed run appends to a file that holds its header; everything else starts anew
@@ -179,7 +203,8 @@ Result<RunMetrics> RunMetrics::Open(const std::string& dir, bool resume) {
   open(m.csv_, csv, MetricsHeader());
   open(m.jsonl_, jsonl, "");
   open(m.eval_, eval, kEvalHeader);
-  if (!m.csv_ || !m.jsonl_ || !m.eval_) return Errorf("cannot write the metrics files in {}", dir);
+  open(m.skill_eval_, skill_eval, kEvalHeader);
+  if (!m.csv_ || !m.jsonl_ || !m.eval_ || !m.skill_eval_) return Errorf("cannot write the metrics files in {}", dir);
   return m;
 }
 
@@ -218,16 +243,19 @@ void RunMetrics::Append(const MetricsRow& r) {
                  {"greedy", r.greedy_env_steps ? json{{"env_steps", r.greedy_env_steps},
                                                       {"success", r.greedy_success},
                                                       {"hit_rate", r.greedy_hit_rate},
-                                                      {"angle_accuracy", r.greedy_angle_accuracy}}
+                                                      {"angle_accuracy", r.greedy_angle_accuracy},
+                                                      {"play", r.play_episodes ? json{{"mean", r.play_mean},
+                                                                                      {"sd", r.play_sd},
+                                                                                      {"episodes", r.play_episodes}}
+                                                                               : json(nullptr)}}
                                                : json(nullptr)}}
                 .dump()
          << "\n";
-  if (eval && (evals_.empty() || r.eval_env_steps > evals_.back().env_steps)) {
-    eval_ << fmt::format("{},{:.4f},{:.4f},{:.2f}\n", r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s);
-    evals_.push_back({r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s});
-  }
+  if (eval) AppendEval(eval_, evals_, {r.eval_env_steps, r.eval_mean, r.eval_sd, wall_s});
+  if (r.greedy_env_steps && r.play_episodes)
+    AppendEval(skill_eval_, skill_evals_, {r.greedy_env_steps, r.play_mean, r.play_sd, wall_s});
   // one row a second: flushed, so a run that is killed keeps its metrics
-  csv_.flush(), jsonl_.flush(), eval_.flush();
+  csv_.flush(), jsonl_.flush(), eval_.flush(), skill_eval_.flush();
   levels_ = std::max(levels_, std::min(int(r.links.size()), kMaxLevels));
   for (size_t i = 0; i < r.links.size() && i < size_t(kMaxLevels); ++i) {
     if (names_.size() <= i) names_.resize(i + 1);
@@ -236,7 +264,7 @@ void RunMetrics::Append(const MetricsRow& r) {
 }
 
 Result<std::vector<std::string>> RunMetrics::Plot() {
-  csv_.flush(), jsonl_.flush(), eval_.flush();
+  csv_.flush(), jsonl_.flush(), eval_.flush(), skill_eval_.flush();
   std::vector<std::string> files;
   std::string script =
       "set datafile separator ','\nset terminal pngcairo size 900,540\nset grid\n"
@@ -253,12 +281,17 @@ Result<std::vector<std::string>> RunMetrics::Plot() {
     script += "\nset yrange [*:*]\n";
     files.push_back(out);
   }
-  if (!evals_.empty()) {
+  if (!evals_.empty() || !skill_evals_.empty()) {
     const std::string out = (fs::path(dir_) / "eval_return.png").string();
-    script += fmt::format(
-        "set output '{}'\nset title 'Task: greedy eval return'\nset ylabel 'return'\n"
-        "plot '{}' every ::1 using 1:2:3 with yerrorlines lw 2 title 'eval return (mean +- sd)'\n",
-        out, (fs::path(dir_) / "eval.csv").string());
+    script += fmt::format("set output '{}'\nset title 'Task: greedy eval return'\nset ylabel 'return'\nplot ", out);
+    const auto series = [&](const char* file, const char* title) {
+      return fmt::format("'{}' every ::1 using 1:2:3 with yerrorlines lw 2 title '{}'",
+                         (fs::path(dir_) / file).string(), title);
+    };
+    if (!skill_evals_.empty()) script += series("skill_eval.csv", "skill in training, random goals (mean +- sd)");
+    if (!skill_evals_.empty() && !evals_.empty()) script += ", ";
+    if (!evals_.empty()) script += series("eval.csv", "task policy (mean +- sd)");
+    script += "\n";
     files.push_back(out);
   }
   if (files.empty()) return files;
@@ -359,6 +392,20 @@ std::string ScoreLine(const json& sc) {
   const std::string note = sc.value("note", "");
   return line + (note.empty() ? "" : ": " + note) + "\n";
 }
+// the best of a series of evaluations (EvalMilestones) and when each reported return was reached
+std::string MilestoneLines(const json& e, const char* what, const char* best_is, const char* name) {
+  const json& b = e["best"];
+  std::string out = fmt::format("  best of {} {}: {:.2f} +- {:.2f} at {} env steps ({:.0f} s): {}\n",
+                                e["count"].get<uint64_t>(), what, b["mean"].get<double>(), b["sd"].get<double>(),
+                                Short(double(b["env_steps"].get<uint64_t>())), b["wall_s"].get<double>(), best_is);
+  for (const json& r : e["reached"])
+    out += r["env_steps"].is_null()
+               ? fmt::format("  {} >= {:g}: not reached\n", name, r["return"].get<double>())
+               : fmt::format("  {} >= {:g}: first at {} env steps ({:.0f} s), {:.2f}\n", name,
+                             r["return"].get<double>(), Short(double(r["env_steps"].get<uint64_t>())),
+                             r["wall_s"].get<double>(), r["mean"].get<double>());
+  return out;
+}
 }  // namespace
 
 std::string FormatSummary(const json& s) {
@@ -401,21 +448,12 @@ std::string FormatSummary(const json& s) {
                        Short(double(s["eval"]["env_steps"].get<uint64_t>())));
   else
     out += "  newest eval return: none reported\n";
-  if (s.contains("evals") && s["evals"].is_object()) {
-    const json& e = s["evals"];
-    const json& b = e["best"];
-    out += fmt::format(
-        "  best of {} evaluations: {:.2f} +- {:.2f} at {} env steps ({:.0f} s): the final policy, "
-        "`coins eval` acts with its weights\n",
-        e["count"].get<uint64_t>(), b["mean"].get<double>(), b["sd"].get<double>(),
-        Short(double(b["env_steps"].get<uint64_t>())), b["wall_s"].get<double>());
-    for (const json& r : e["reached"])
-      out += r["env_steps"].is_null()
-                 ? fmt::format("  eval return >= {:g}: not reached\n", r["return"].get<double>())
-                 : fmt::format("  eval return >= {:g}: first at {} env steps ({:.0f} s), {:.2f}\n",
-                               r["return"].get<double>(), Short(double(r["env_steps"].get<uint64_t>())),
-                               r["wall_s"].get<double>(), r["mean"].get<double>());
-  }
+  if (s.contains("skill_evals") && s["skill_evals"].is_object())
+    out += MilestoneLines(s["skill_evals"], "skill evaluations on random goals playing the task", "the skills' own",
+                          "skill on random goals, return");
+  if (s.contains("evals") && s["evals"].is_object())
+    out += MilestoneLines(s["evals"], "task evaluations", "the final policy, `coins eval` acts with its weights",
+                          "eval return");
   return out;
 }
 

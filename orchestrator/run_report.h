@@ -1,6 +1,7 @@
 // What `coins run` shows and writes about the chain: the chain part of the progress line, the
 // metrics rows (RUN_DIR/metrics.csv and metrics.jsonl, one row a second; eval.csv, one row per
-// evaluation), the learning-curve PNGs (gnuplot), the summary (printed and summary.json) with
+// task evaluation; skill_eval.csv, one row per evaluation of a skill on random goals playing the
+// task), the learning-curve PNGs (gnuplot), the summary (printed and summary.json) with
 // the best evaluation and when each reported return was first reached, and the final GIF
 // through `coins eval` when that subcommand exists. A resumed run appends to the metrics files
 // of the run it continues, its wall clock going on from their last row.
@@ -19,8 +20,10 @@
 
 namespace coins {
 
-// "chain training-skill | Action->Paddle 6.20 0.91* | eval 12.3+-4.1 | lag 1.0 | epoch 3 | restarts 0"
-// (* marks the link in training); "chain (no status yet)" before the orchestrator reports
+// "chain training-skill | Action->Paddle 6.20 0.91* | eval 12.3+-4.1 | skill plays 40.2+-9.9 | lag 1.0 |
+// epoch 3 | restarts 0" (* marks the link in training; eval: the task policy's newest evaluation;
+// skill plays: the skill in training on random goals playing the task); "chain (no status yet)" before the orchestrator
+// reports
 std::string ChainProgress(const StatusView& v, int64_t restarts);
 
 struct MetricsRow {
@@ -42,10 +45,13 @@ struct MetricsRow {
   // ended by an interaction, and of those the reached ones; 0 before the first)
   uint64_t greedy_env_steps = 0;
   double greedy_success = 0, greedy_hit_rate = 0, greedy_angle_accuracy = 0;
+  // of the same evaluation: the skill on random goals playing whole task episodes (0 episodes: none)
+  double play_mean = 0, play_sd = 0;
+  uint32_t play_episodes = 0;
 };
 MetricsRow MakeRow(const StatusView& v, double wall_s, double steps_per_s, int64_t restarts);
 
-// one task evaluation as the run saw it: wall_s is the run's wall clock when it was first reported
+// one evaluation of the task's return as the run saw it: wall_s is the run's wall clock when it was first reported
 struct EvalPoint {
   uint64_t env_steps = 0;
   double mean = 0, sd = 0, wall_s = 0;
@@ -57,25 +63,27 @@ std::optional<EvalPoint> ParseEvalRow(const std::string& row);
 class RunMetrics {
  public:
   static constexpr int kMaxLevels = 8;
-  // opens dir/metrics.csv, metrics.jsonl and eval.csv: truncated for a new run; with resume,
+  // opens dir/metrics.csv, metrics.jsonl, eval.csv and skill_eval.csv: truncated for a new run; with resume,
   // appended to, the evaluations and the wall clock read back from them (a row cut by a crash is
   // dropped; a file with another header is kept as NAME.before-resume and started anew)
   static Result<RunMetrics> Open(const std::string& dir, bool resume = false);
   // writes one row (its wall_s taken on from the resumed run's last row)
   void Append(const MetricsRow& row);
-  // every evaluation so far, the resumed run's included, in order
+  // every evaluation so far, the resumed run's included, in order: of the task policy, and of the
+  // skill in training on random goals playing the task
   const std::vector<EvalPoint>& evals() const { return evals_; }
+  const std::vector<EvalPoint>& skill_evals() const { return skill_evals_; }
   // the wall time the resumed run had spent (0 for a new run)
   double wall_offset() const { return wall_offset_; }
-  // flushes; writes skill_success.png and eval_return.png with gnuplot (bounded: 30 s); returns
+  // flushes; writes skill_success.png and eval_return.png (both series) with gnuplot (bounded: 30 s); returns
   // the files written, or an error line (gnuplot missing or failing) that does not fail the run
   Result<std::vector<std::string>> Plot();
 
  private:
   std::string dir_;
-  std::ofstream csv_, jsonl_, eval_;
-  double wall_offset_ = 0;        // the resumed run's last wall_s
-  std::vector<EvalPoint> evals_;  // in order of env steps
+  std::ofstream csv_, jsonl_, eval_, skill_eval_;
+  double wall_offset_ = 0;                      // the resumed run's last wall_s
+  std::vector<EvalPoint> evals_, skill_evals_;  // in order of env steps
   int levels_ = 0;
   std::vector<std::string> names_;  // the newest link name per level
 };

@@ -73,7 +73,14 @@ TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
     std::vector<msg::ChainLink> links = {Link("Action", "Paddle", 6.2, 0.04 * i, i < 10 ? "training" : "learned")};
     if (i >= 10) links.push_back(Link("Paddle", "Ball", 4.1, 0.03 * (i - 10), "training"));
     uint64_t steps = uint64_t(i) * 5000;
-    m->Append(MakeRow(View(steps, links, i >= 15 ? steps : 0, 10.0 * i), double(i), 5000.0, 0));
+    StatusView v = View(steps, links, i >= 15 ? steps : 0, 10.0 * i);
+    if (i >= 10 && i < 15) {  // the ball skill's evaluations, each seen twice, play the task
+      v.learner->sample.eval_env_steps(steps - steps % 10'000);
+      v.learner->sample.eval_play_return_mean(double(i));
+      v.learner->sample.eval_play_return_sd(0.5);
+      v.learner->sample.eval_play_episodes(20);
+    }
+    m->Append(MakeRow(v, double(i), 5000.0, 0));
   }
   auto lines = Lines(dir / "metrics.csv");
   ASSERT_EQ(lines.size(), 21u);
@@ -81,12 +88,20 @@ TEST(RunReport, MetricsRowsAndLearningCurvesAreWritten) {
   EXPECT_EQ(lines[20],
             "20.00,100000,training-skill,5000.0,250.00,1.500,100000,200.0000,2.0000,3,0,0.8000,0.3000,,,,,,,,,,,,,,");
   EXPECT_EQ(Lines(dir / "eval.csv").size(), 1u + 6u);  // header + evaluations at rows 15..20
+  // the skill's evaluations at 50k, 60k and 70k env steps, first seen in rows 10, 12 and 14
+  EXPECT_EQ(Lines(dir / "skill_eval.csv"),
+            (std::vector<std::string>{"env_steps,eval_return_mean,eval_return_sd,wall_s", "50000,10.0000,0.5000,10.00",
+                                      "60000,12.0000,0.5000,12.00", "70000,14.0000,0.5000,14.00"}));
+  ASSERT_EQ(m->skill_evals().size(), 3u);
+  EXPECT_EQ(m->skill_evals()[2].env_steps, 70'000u);
   auto jsonl = Lines(dir / "metrics.jsonl");
   ASSERT_EQ(jsonl.size(), 20u);
   auto last = nlohmann::json::parse(jsonl.back());
   EXPECT_EQ(last["links"][1]["link"], "Paddle->Ball");
   EXPECT_DOUBLE_EQ(last["eval"]["mean"].get<double>(), 200.0);
   EXPECT_TRUE(nlohmann::json::parse(jsonl.front())["eval"].is_null());
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(jsonl[13])["greedy"]["play"]["mean"].get<double>(), 14.0);
+  EXPECT_EQ(nlohmann::json::parse(jsonl[13])["greedy"]["play"]["episodes"], 20u);
   auto plots = m->Plot();
   ASSERT_TRUE(plots.ok()) << plots.status().message();
   ASSERT_EQ(plots->size(), 2u);
@@ -200,10 +215,20 @@ TEST(RunReport, TheSummarySaysTheBestEvaluationAndWhenEachReturnWasFirstReached)
 
   auto summary = RunSummary(View(100'000, {}, 100'000, 90), 500, 0);
   summary["evals"] = m;
+  summary["skill_evals"] = EvalMilestones({{30'000, 91, 5, 150}, {50'000, 88, 6, 250}}, {90, 95});
   const std::string text = FormatSummary(summary);
-  EXPECT_NE(text.find("best of 5 evaluations: 97.25 +- 2.00 at 80.0k env steps (400 s)"), std::string::npos) << text;
-  EXPECT_NE(text.find("eval return >= 95: first at 60.0k env steps (300 s), 96.00"), std::string::npos) << text;
-  EXPECT_NE(text.find("eval return >= 99: not reached"), std::string::npos) << text;
+  EXPECT_NE(text.find("best of 5 task evaluations: 97.25 +- 2.00 at 80.0k env steps (400 s)"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("\n  eval return >= 95: first at 60.0k env steps (300 s), 96.00"), std::string::npos) << text;
+  EXPECT_NE(text.find("\n  eval return >= 99: not reached"), std::string::npos) << text;
+  EXPECT_NE(text.find("best of 2 skill evaluations on random goals playing the task: 91.00 +- 5.00 at 30.0k env "
+                      "steps (150 s)"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("skill on random goals, return >= 90: first at 30.0k env steps (150 s), 91.00"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("skill on random goals, return >= 95: not reached"), std::string::npos) << text;
 }
 
 TEST(RunReport, ProgressAndSummaryShowTheChain) {
@@ -218,6 +243,12 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
             "chain training-skill | Action->Paddle 6.20 0.93 | Paddle->Ball 4.10 0.40* | eval 12.3+-2.0 | lag 1.5 | "
             "250 upd/s | epoch 3 | restarts 2");
   EXPECT_EQ(ChainProgress(StatusView{}, 0), "chain (no status yet) | restarts 0");
+  StatusView playing = v;
+  playing.learner->sample.eval_play_episodes(20);
+  playing.learner->sample.eval_play_return_mean(41.25);
+  playing.learner->sample.eval_play_return_sd(9.5);
+  EXPECT_NE(ChainProgress(playing, 2).find("| eval 12.3+-2.0 | skill plays 41.2+-9.5 | lag 1.5 |"), std::string::npos)
+      << ChainProgress(playing, 2);
   // the newest detect round, a rejected pair among its scores
   msg::InteractionScore block;
   block.source("Ball");

@@ -147,7 +147,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                       {"steps", r.steps},
                       {"steps_per_s", r.control_seconds > 0 ? r.steps / r.control_seconds : 0.0},
                       {"env_steps_per_s", r.env_seconds > 0 ? r.steps / r.env_seconds : 0.0},
-                      {"explore", spec.is_task() ? f.explore : 0.0}};
+                      {"explore", spec.is_task() ? f.explore : 0.0},
+                      {"play_task", f.play_task}};
   const bool continuous_skill = !spec.is_task() && spec.goal.kind == policy::GoalKind::kContinuous;
   const double ratio = f.goal_sample_ratio >= 0 ? f.goal_sample_ratio : spec.goal.sample_ratio;
   j["goal_sample_ratio"] = continuous_skill ? nlohmann::json(ratio) : nlohmann::json(nullptr);
@@ -182,7 +183,11 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                                     task_weights["env_steps"].get<uint64_t>())
                       : std::string("  the task's newest weights"))
               << "\n";
-  } else if (!r.returns.empty())
+  } else if (f.play_task)
+    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} whole episodes (the skill's goals at random)",
+                             r.return_mean, r.return_sd, r.returns.size())
+              << "\n";
+  else if (!r.returns.empty())
     std::cout << fmt::format(
                      "  return {:.2f} +- {:.2f} over the {} episodes the env ended (the skill's goals at random)",
                      r.return_mean, r.return_sd, r.returns.size())
@@ -224,6 +229,7 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
 
 Status RunEval(const EvalFlags& f) {
   if (f.goal_sample_ratio >= 0 && f.skill.empty()) return Errorf("--goal-sample-ratio needs --skill");
+  if (f.play_task && f.skill.empty()) return Errorf("--play-task needs --skill");
   auto ckpt = FindCheckpoint(f.run_dir, f.epoch);
   if (!ckpt.ok()) return ckpt.status();
   auto trained_env = RunEnv(f.run_dir);
@@ -249,7 +255,7 @@ Status RunEval(const EvalFlags& f) {
 
   EvalRecorder recorder(f, **env);
   COINS_RETURN_IF_ERROR(recorder.Open());
-  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore), float(f.goal_sample_ratio)};
+  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore), float(f.goal_sample_ratio), f.play_task};
   auto r = Evaluate(**env, **models, level, eo, [&](const EvalStep& s) { recorder.OnStep(s); });
   if (!r.ok()) return r.status();
   COINS_RETURN_IF_ERROR(recorder.Finish());
@@ -266,7 +272,8 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("run_dir", f->run_dir, "run directory (with checkpoints/)")->required();
   cmd->add_option("--env", f->env, "environment to evaluate in (default: the run's)");
   cmd->add_option("--skill", f->skill, "evaluate this skill (e.g. Ball) with random goals instead of the task");
-  cmd->add_option("--episodes", f->episodes, "episodes (task) or goals (skill)")->check(CLI::Range(1, 100000));
+  cmd->add_option("--episodes", f->episodes, "episodes (task, --play-task) or goals (skill)")
+      ->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", f->seed, "first episode's seed");
   cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")
       ->check(CLI::Range(int64_t(1), int64_t(1) << 30));
@@ -280,6 +287,8 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--out", f->out, "write the rollout as JSON lines (the `coins env rollout` format)");
   cmd->add_option("--gif", f->gif, "write the first --gif-steps steps as a GIF");
   cmd->add_option("--gif-steps", f->gif_steps, "frames in the GIF")->check(CLI::Range(1, 3000));
+  cmd->add_flag("--play-task", f->play_task,
+                "--skill: play --episodes whole task episodes on random goals (the run's skill evaluations)");
   cmd->add_flag("--json", f->json, "print one JSON object");
   cmd->add_flag("--last", f->last,
                 "the task's newest weights instead of those its best periodic evaluation scored with");

@@ -30,6 +30,7 @@ struct EvalFlags {
   bool json = false;
   bool last = false;              // the task's newest weights instead of its best-evaluated ones
   double goal_sample_ratio = -1;  // --skill: random goals drawn with this sample ratio (negative: the skill's own)
+  bool play_task = false;         // --skill: whole task episodes on random goals (EvalOptions::skill_plays_task)
 };
 
 // adds `eval`; its exit code goes to *exit_code

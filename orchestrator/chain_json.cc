@@ -122,6 +122,7 @@ json ToJson(const Score& s) {
           {"mg_score", Num(s.mg_score)},
           {"interactions", s.interactions},
           {"chance_interactions", Num(s.chance_interactions)},
+          {"goal_interactions", s.goal_interactions},
           {"transitions", s.transitions},
           {"pass", s.pass},
           {"eligible", s.eligible},
@@ -140,6 +141,8 @@ void FromJson(JsonIn in, Score& s) {
   in.F64("train_seconds", s.train_seconds);
   // states written before the chance count was kept have none: 0
   if (in.Has("chance_interactions")) in.F64("chance_interactions", s.chance_interactions);
+  // nor the count behind the mask and goal set (before it came from all the round's detections)
+  if (in.Has("goal_interactions")) in.U64("goal_interactions", s.goal_interactions);
 }
 
 }  // namespace

@@ -196,8 +196,10 @@ bool ChainMachine::Accept(const Score& best) {
   l.accepted_at_steps = s_.env_steps;
   s_.links.push_back(std::move(l));
   return Transition(Phase::kTrainingSkill,
-                    fmt::format("{}->{} accepted in round {}: Sc_I {:.2f} > eps_SI {}; training its skill as level {}",
-                                best.source, best.target, s_.round, best.score, o_.eps_si, s_.links.size()));
+                    fmt::format("{}->{} accepted in round {}: Sc_I {:.2f} > eps_SI {} ({} detections; mask and goal "
+                                "set from {}); training its skill as level {}",
+                                best.source, best.target, s_.round, best.score, o_.eps_si, best.interactions,
+                                best.goal_interactions, s_.links.size()));
 }
 
 bool ChainMachine::NoLinkThisRound(const std::string& why) {

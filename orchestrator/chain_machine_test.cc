@@ -57,6 +57,8 @@ Score MakeScore(const std::string& source, const std::string& target, double sc,
   s.score = sc;
   s.eligible = eligible;
   s.pass = sc > 3.0;
+  s.interactions = 12;
+  s.goal_interactions = 60;
   s.mask = {1.0f, 0.0f};
   s.goal_kind = "continuous";
   s.goal_set = {-1.0f, 1.0f};
@@ -154,6 +156,10 @@ TEST(ChainMachine, AcceptsTheArgmaxOfEligiblePassingScores) {
   EXPECT_EQ(cmd.step_limit, 1000u + 50'000u);  // phase start + skill budget
   EXPECT_EQ(c.m.state().links[0].accepted_at_steps, 1000u);
   EXPECT_EQ(c.m.state().last_scores.size(), 4u);
+  EXPECT_NE(c.m.state().note.find("Action->Paddle accepted in round 1: Sc_I 4.50 > eps_SI 3 (12 detections; mask and "
+                                  "goal set from 60)"),
+            std::string::npos)
+      << c.m.state().note;
 }
 
 TEST(ChainMachine, PicksTheHighestOfSeveralPassingTargets) {

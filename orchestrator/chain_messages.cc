@@ -41,6 +41,7 @@ chain::Score FromMessage(const msg::InteractionScore& m) {
   s.mg_score = m.mg_score();
   s.interactions = m.interactions();
   s.chance_interactions = m.chance_interactions();
+  s.goal_interactions = m.goal_interactions();
   s.transitions = m.transitions();
   s.pass = m.pass();
   s.eligible = m.eligible();
@@ -106,6 +107,7 @@ msg::InteractionScore ToMessage(const chain::Score& s) {
   m.mg_score(s.mg_score);
   m.interactions(s.interactions);
   m.chance_interactions(s.chance_interactions);
+  m.goal_interactions(s.goal_interactions);
   m.transitions(s.transitions);
   m.pass(s.pass);
   m.eligible(s.eligible);

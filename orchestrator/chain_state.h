@@ -55,6 +55,7 @@ struct Score {
   double score = 0, mg_score = 0;
   uint64_t interactions = 0, transitions = 0;
   double chance_interactions = 0;  // detections with other transitions' sources
+  uint64_t goal_interactions = 0;  // detections the mask and goal set came from
   bool pass = false, eligible = false;
   std::string note;
   std::vector<float> mask;

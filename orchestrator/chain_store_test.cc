@@ -48,6 +48,7 @@ ChainState SomeState() {
   sc.note = "no interactions";
   sc.interactions = 3;
   sc.chance_interactions = 2.5;
+  sc.goal_interactions = 40;
   s.last_scores.push_back(sc);
   s.round = 2;
   s.next_detect = 20'000;
@@ -160,19 +161,22 @@ TEST(ChainStore, AFileThatPredatesAKeyLoadsWhileTheKeyHoldsItsDefault) {
       << refused.status().message();
 }
 
-// states written before scores kept their chance count still load, with a count of 0
+// states written before scores kept their chance count (and the count behind their goal set)
+// still load, with counts of 0
 TEST(ChainStore, AScoreWithoutItsChanceCountLoadsAsZero) {
   ChainStore store(FreshDir("no-chance"), Fingerprint());
   ASSERT_TRUE(store.Save(SomeState()).ok());
   std::string text = ReadText(store.StatePath());
-  const std::string field = "\"chance_interactions\": 2.5,";
-  const size_t at = text.find(field);
-  ASSERT_NE(at, std::string::npos) << text;
-  text.erase(at, field.size());
+  for (const std::string field : {"\"chance_interactions\": 2.5,", "\"goal_interactions\": 40,"}) {
+    const size_t at = text.find(field);
+    ASSERT_NE(at, std::string::npos) << text;
+    text.erase(at, field.size());
+  }
   std::ofstream(store.StatePath()) << text;
   auto loaded = store.Load();
   ASSERT_TRUE(loaded.ok()) << loaded.status().message();
   EXPECT_EQ((*loaded)->last_scores.at(0).chance_interactions, 0.0);
+  EXPECT_EQ((*loaded)->last_scores.at(0).goal_interactions, 0u);
   EXPECT_EQ((*loaded)->last_scores.at(0).interactions, 3u);
 }
 

@@ -58,6 +58,13 @@ std::string ChainTable(const StatusView& v) {
     out << fmt::format(
         "  learner: job {} ({}), {} updates ({:.0f}/s), lag median {:.1f} p99 {:.1f}, checkpoint epoch {}\n", l.job(),
         l.state(), l.updates(), l.updates_per_s(), l.lag_median(), l.lag_p99(), l.checkpoint_epoch());
+    if (l.eval_env_steps())
+      out << fmt::format(
+          "  greedy evaluation at {} env steps: success {:.3f}, hit rate {:.3f}, angle accuracy {:.3f}{}\n",
+          l.eval_env_steps(), l.eval_success(), l.eval_hit_rate(), l.eval_angle_accuracy(),
+          l.eval_play_episodes() ? fmt::format("; on random goals it plays the task for {:.2f} +- {:.2f}",
+                                               l.eval_play_return_mean(), l.eval_play_return_sd())
+                                 : std::string());
   }
   return out.str();
 }
@@ -141,7 +148,12 @@ nlohmann::json Json(const StatusView& v) {
     j["learner"] = {{"job", v.learner->sample.job()},
                     {"state", v.learner->sample.state()},
                     {"updates", v.learner->sample.updates()},
-                    {"lag_median", v.learner->sample.lag_median()}};
+                    {"lag_median", v.learner->sample.lag_median()},
+                    {"eval_env_steps", v.learner->sample.eval_env_steps()},
+                    {"eval_success", v.learner->sample.eval_success()},
+                    {"eval_hit_rate", v.learner->sample.eval_hit_rate()},
+                    {"eval_play_return_mean", v.learner->sample.eval_play_return_mean()},
+                    {"eval_play_episodes", v.learner->sample.eval_play_episodes()}};
   return j;
 }
 

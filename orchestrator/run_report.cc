@@ -334,6 +334,7 @@ json RunSummary(const StatusView& v, double wall_s, int64_t restarts) {
                                 {"score", s.score()},
                                 {"interactions", s.interactions()},
                                 {"chance_interactions", s.chance_interactions()},
+                                {"goal_interactions", s.goal_interactions()},
                                 {"eligible", s.eligible()},
                                 {"note", s.note()}});
   if (c.eval_env_steps())
@@ -388,16 +389,21 @@ std::string ScoreLine(const json& sc) {
   if (sc.contains("interactions"))
     line +=
         fmt::format(", {:.0f} detections ({:.1f} by chance)", number("interactions"), number("chance_interactions"));
+  if (number("goal_interactions") > 0)
+    line += fmt::format(", mask and goal set from {:.0f}", number("goal_interactions"));
   if (!sc.value("eligible", true)) line += ", not eligible";
   const std::string note = sc.value("note", "");
   return line + (note.empty() ? "" : ": " + note) + "\n";
 }
-// the best of a series of evaluations (EvalMilestones) and when each reported return was reached
-std::string MilestoneLines(const json& e, const char* what, const char* best_is, const char* name) {
+// the best of a series of evaluations (EvalMilestones; `best_is`: what the best one is, or "") and
+// when each reported return was first reached
+std::string MilestoneLines(const json& e, const std::string& what, const std::string& best_is,
+                           const std::string& name) {
   const json& b = e["best"];
-  std::string out = fmt::format("  best of {} {}: {:.2f} +- {:.2f} at {} env steps ({:.0f} s): {}\n",
-                                e["count"].get<uint64_t>(), what, b["mean"].get<double>(), b["sd"].get<double>(),
-                                Short(double(b["env_steps"].get<uint64_t>())), b["wall_s"].get<double>(), best_is);
+  std::string out =
+      fmt::format("  best of {} {}: {:.2f} +- {:.2f} at {} env steps ({:.0f} s){}\n", e["count"].get<uint64_t>(), what,
+                  b["mean"].get<double>(), b["sd"].get<double>(), Short(double(b["env_steps"].get<uint64_t>())),
+                  b["wall_s"].get<double>(), best_is.empty() ? "" : ": " + best_is);
   for (const json& r : e["reached"])
     out += r["env_steps"].is_null()
                ? fmt::format("  {} >= {:g}: not reached\n", name, r["return"].get<double>())
@@ -449,7 +455,7 @@ std::string FormatSummary(const json& s) {
   else
     out += "  newest eval return: none reported\n";
   if (s.contains("skill_evals") && s["skill_evals"].is_object())
-    out += MilestoneLines(s["skill_evals"], "skill evaluations on random goals playing the task", "the skills' own",
+    out += MilestoneLines(s["skill_evals"], "evaluations of the skill in training on random goals playing the task", "",
                           "skill on random goals, return");
   if (s.contains("evals") && s["evals"].is_object())
     out += MilestoneLines(s["evals"], "task evaluations", "the final policy, `coins eval` acts with its weights",

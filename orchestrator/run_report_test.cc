@@ -221,8 +221,8 @@ TEST(RunReport, TheSummarySaysTheBestEvaluationAndWhenEachReturnWasFirstReached)
       << text;
   EXPECT_NE(text.find("\n  eval return >= 95: first at 60.0k env steps (300 s), 96.00"), std::string::npos) << text;
   EXPECT_NE(text.find("\n  eval return >= 99: not reached"), std::string::npos) << text;
-  EXPECT_NE(text.find("best of 2 skill evaluations on random goals playing the task: 91.00 +- 5.00 at 30.0k env "
-                      "steps (150 s)"),
+  EXPECT_NE(text.find("best of 2 evaluations of the skill in training on random goals playing the task: 91.00 +- "
+                      "5.00 at 30.0k env steps (150 s)\n"),
             std::string::npos)
       << text;
   EXPECT_NE(text.find("skill on random goals, return >= 90: first at 30.0k env steps (150 s), 91.00"),
@@ -256,6 +256,7 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
   block.score(0);
   block.interactions(3);
   block.chance_interactions(2.5);
+  block.goal_interactions(4);
   block.eligible(false);
   block.note("3 detections are not above 2 x 2.5 by chance");
   v.chain->sample.last_scores({block});
@@ -270,8 +271,8 @@ TEST(RunReport, ProgressAndSummaryShowTheChain) {
       << text;
   EXPECT_NE(text.find("level 2 Paddle->Ball: Sc_I 4.10, accepted at 10.0k, not learned"), std::string::npos) << text;
   EXPECT_NE(text.find("mask [1 0 0]; goals continuous [-1] .. [1]"), std::string::npos) << text;
-  EXPECT_NE(text.find("newest detect round:\n    Ball->Block: Sc_I 0.00, 3 detections (2.5 by chance), not eligible: 3 "
-                      "detections are not above 2 x 2.5 by chance\n"),
+  EXPECT_NE(text.find("newest detect round:\n    Ball->Block: Sc_I 0.00, 3 detections (2.5 by chance), mask and goal "
+                      "set from 4, not eligible: 3 detections are not above 2 x 2.5 by chance\n"),
             std::string::npos)
       << text;
   EXPECT_NE(text.find("newest eval return: 12.30 +- 2.00 (evaluated at 120.0k env steps)"), std::string::npos) << text;

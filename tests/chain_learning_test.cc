@@ -95,6 +95,21 @@ TEST(ChainLearning, PaddleSkillLearnedAcrossProcessesThroughKillNineOfTheLearner
   ASSERT_TRUE(j.is_object()) << paddle.output;
   EXPECT_EQ(j["goals"], 100);
   EXPECT_GE(j["success"].get<double>(), 0.6) << paddle.output;  // measured 0.73-0.89 over runs
+  // the same skill on random goals playing whole Breakout episodes (each ends at its first drop,
+  // -10, after the blocks it broke); the flag needs a skill
+  auto play = RunCommand(Bin("coins") + " eval " + run.string() + " --skill Paddle --play-task --episodes 5 --json");
+  ASSERT_EQ(play.code, 0) << play.output;
+  const auto jp = nlohmann::json::parse(play.output.substr(play.output.find('{')), nullptr, false);
+  ASSERT_TRUE(jp.is_object()) << play.output;
+  EXPECT_EQ(jp["play_task"], true);
+  ASSERT_EQ(jp["returns"].size(), 5u) << play.output;
+  for (const auto& ret : jp["returns"]) {
+    EXPECT_GE(ret.get<double>(), -10.0) << play.output;
+    EXPECT_LE(ret.get<double>(), 100.0) << play.output;
+  }
+  auto play_task = RunCommand(Bin("coins") + " eval " + run.string() + " --play-task");
+  EXPECT_EQ(play_task.code, 2);
+  EXPECT_NE(play_task.output.find("--play-task needs --skill"), std::string::npos) << play_task.output;
 }
 
 }  // namespace

@@ -37,6 +37,7 @@ msg::InteractionScore ToScoreMessage(const detector::PairScores& s, const envs::
   m.mg_score(s.mg_score);
   m.interactions(uint64_t(std::max<int64_t>(0, s.interactions)));
   m.chance_interactions(s.chance_interactions);
+  m.goal_interactions(uint64_t(std::max<int64_t>(0, s.goal_interactions)));
   m.pass(s.pass);
   std::vector<float> mask(s.mask.begin(), s.mask.end());
   m.mask(mask);

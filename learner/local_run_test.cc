@@ -95,6 +95,8 @@ TEST(LocalRun, FindsActionToPaddleAndTrainsThePaddleSkill) {
   EXPECT_TRUE(paddle->pass()) << paddle->score();
   EXPECT_TRUE(paddle->eligible());
   EXPECT_EQ(std::vector<float>(paddle->mask().begin(), paddle->mask().end()), (std::vector<float>{0, 1, 0, 0, 0}));
+  // Sc_I from the held-out share; the mask and goal set from every detection of the round's data
+  EXPECT_GT(paddle->goal_interactions(), 3 * paddle->interactions()) << paddle->interactions();
 
   // train the paddle skill, paced at one update per env step after 1000 random-goal steps
   msg::ChainCommand train = Command(3, "train-skill", 1, 7000);
@@ -116,6 +118,11 @@ TEST(LocalRun, FindsActionToPaddleAndTrainsThePaddleSkill) {
   EXPECT_GT(st.updates(), 15000u);
   EXPECT_GE(st.eval_env_steps(), 20000u);
   EXPECT_GE(st.eval_success(), 0.9) << "greedy goal-reaching rate at " << st.eval_env_steps() << " steps";
+  // the same evaluation let the skill play 20 whole Breakout episodes on random goals: each ends
+  // at its first drop (-10) after the blocks the ball broke
+  EXPECT_EQ(st.eval_play_episodes(), 20u);
+  EXPECT_GE(st.eval_play_return_mean(), -10.0);
+  EXPECT_LE(st.eval_play_return_mean(), 100.0);
   EXPECT_EQ(r.rejected(), 0u);
   // the actors ran the skill: level-1 goals ended, most reached by the end
   const HierarchyCounters& c = r.actor(0).counters().hierarchy;

@@ -12,8 +12,12 @@ namespace coins {
 namespace {
 
 // the keys the example sets to values of its own (each with a comment in the file)
-const std::set<std::string> kSetByTheExample = {"run.steps", "run.dir", "run.report_returns",
-                                                "orchestrator.skill_max_steps", "learner.primitive_goal_sample_ratio"};
+const std::set<std::string> kSetByTheExample = {"run.steps",
+                                                "run.dir",
+                                                "run.report_returns",
+                                                "orchestrator.skill_max_steps",
+                                                "learner.primitive_goal_sample_ratio",
+                                                "learner.skill_interaction_reward"};
 
 TEST(ExampleConfig, ListsEveryKeyWithItsDefault) {
   auto text = ReadFileText(COINS_EXAMPLE_CONFIG);

@@ -210,6 +210,45 @@ TEST(Hierarchy, SecondLevelDecidesEveryThreeStepsAndWritesItsOwnStream) {
   EXPECT_GT(decisions, 900);
 }
 
+// env steps of each ball decision that ended without its goal or episode ending
+std::vector<int> OpenDecisionLengths(const Recorder& rec) {
+  std::vector<int> lengths;
+  int steps = 0;
+  for (const auto& row : rec.rows) {
+    if (row.flags & msg::ROW_SEGMENT_START) {
+      steps = 0;
+    } else if (row.stream == 0) {
+      ++steps;
+    } else {
+      const uint16_t ends = msg::ROW_DONE | msg::ROW_TRUNCATED | msg::ROW_SKILL_TERMINATED | msg::ROW_GOAL_END;
+      if (!(row.flags & ends)) lengths.push_back(steps);
+      steps = 0;
+    }
+  }
+  return lengths;
+}
+
+TEST(Hierarchy, AHeldDecisionLastsItsWholePeriodWhenThePaddleArrivesSooner) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  policy::LevelSpec held = Ball(spec);
+  held.hold_decision = true;
+  int action_dim, goal_dim;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  auto lengths = [&](const policy::LevelSpec& ball) {
+    const HierarchyModels models = Models({Paddle(spec), ball});
+    HierarchyRunner runner(spec, action_dim, goal_dim, 9);
+    runner.Configure(&models, 2, true);
+    return OpenDecisionLengths(RunSteps(**env, runner, 3000));
+  };
+  // unheld, a decision ends when the paddle reaches its goal: the offset 0 after one step
+  const std::vector<int> free = lengths(Ball(spec));
+  EXPECT_GT(std::count(free.begin(), free.end(), 1), 100);
+  const std::vector<int> kept = lengths(held);
+  ASSERT_GT(kept.size(), 500u);
+  for (int n : kept) EXPECT_EQ(n, 3);
+}
+
 // the share of a level's decisions in a rollout that equal its net's greedy choice. Rows hold
 // the state after a decision: the decision was taken at the stream's previous row's state,
 // towards the goal the row carries.

@@ -29,6 +29,7 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.Float(p + "goal_epsilon", goal_epsilon, 0, 2, "continuous goals: reached within (normalised units)");
   v.Int(p + "timeout", timeout, 1, 1 << 20, "env steps before a goal times out");
   v.Int(p + "decision_period", decision_period, 0, 1 << 20, "env steps per action at most (0: child's goal)");
+  v.Bool(p + "hold_decision", hold_decision, "with decision_period: every action lasts exactly that many env steps");
   v.FloatList(p + "child_offsets", child_offsets, "continuous 1-d child goals as discrete offsets (dqn)");
   v.Float(p + "child_ratio", child_ratio, 1e-6, 10, "child goal offsets scale, fraction of the range");
   if (p != "task_")

@@ -38,6 +38,7 @@ struct LevelTrainOptions {
   double goal_epsilon = 0.024;        // continuous goals: reached within this, in normalised units
   int64_t timeout = 30;               // env steps before a goal times out
   int64_t decision_period = 0;        // env steps per action at most (0: until the child's goal ends)
+  bool hold_decision = false;         // with decision_period: every action lasts exactly that long
   std::vector<double> child_offsets;  // continuous 1-d child goals as discrete offsets (dqn); empty: ddpg
   double child_ratio = 0.15;          // child goal = child value + offset * ratio * range
   // continuous goals of the level drawn at random (training, evaluation) within this fraction of

@@ -160,6 +160,7 @@ nlohmann::json ToJson(const LevelSpec& s) {
             {"child_offsets", s.child_offsets},
             {"timeout", s.timeout},
             {"decision_period", s.decision_period},
+            {"hold_decision", s.hold_decision},
             {"terminate_on_interaction", s.terminate_on_interaction},
             {"require_interaction", s.require_interaction},
             {"detector", s.detector},
@@ -220,6 +221,7 @@ LevelSpec ReadSpec(const nlohmann::json& j) {
   s.child_offsets = j.at("child_offsets").get<std::vector<float>>();
   s.timeout = j.at("timeout").get<int>();
   s.decision_period = j.at("decision_period").get<int>();
+  s.hold_decision = j.value("hold_decision", false);  // absent from specs written before the key
   s.terminate_on_interaction = j.at("terminate_on_interaction").get<bool>();
   s.require_interaction = j.at("require_interaction").get<bool>();
   s.detector = j.at("detector").get<std::string>();

@@ -82,6 +82,8 @@ struct LevelSpec {
   // temporal structure
   int timeout = 30;                       // env steps before the level's goal times out
   int decision_period = 0;                // env steps per action at most (0: until the child's goal ends)
+  bool hold_decision = false;             // with decision_period: each action lasts exactly that many env
+                                          // steps (a child that reaches its goal sooner holds it)
   bool terminate_on_interaction = false;  // any detected link interaction ends the goal
   bool require_interaction = false;       // success needs the link interaction
   std::string detector;                   // weights name of the link's detector ("" when none is needed)

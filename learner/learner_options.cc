@@ -57,6 +57,11 @@ Status LevelTrainOptions::Validate(const std::string& p) const {
     if (!(o >= -1 && o <= 1)) return Errorf("{}child_offsets: {} is not in [-1, 1]", p, o);
   if (p == "primitive_" && decision_period > 1)
     return Errorf("{}decision_period {}: primitive actions are chosen every env step (0 or 1)", p, decision_period);
+  if (hold_decision && (p == "primitive_" || decision_period < 1))
+    return Errorf(
+        "{}hold_decision holds an action for {}decision_period env steps: it needs a level above the "
+        "primitive actions with a decision_period of at least 1 ({}decision_period is {})",
+        p, p, p, decision_period);
   if (child_offsets.size() == 1) return Errorf("{}child_offsets needs at least 2 entries (or none)", p);
   for (double h : pair_hidden)
     if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}pair_hidden: {} is not a layer size", p, h);

@@ -31,6 +31,9 @@ TEST(Cli, BadRunInputIsRefusedBeforeStarting) {
   ExpectRefused("--set actor.envs=many", "actor.envs: expected an integer, got 'many'");
   ExpectRefused("--set learner.primitive_decision_period=4", "primitive_decision_period 4: primitive actions");
   ExpectRefused("--set orchestrator.chain=none --set learner.task_decision_period=4", "task_decision_period 4");
+  ExpectRefused("--set learner.primitive_hold_decision=true", "primitive_hold_decision holds an action");
+  ExpectRefused("--set learner.skill_hold_decision=true --set learner.skill_decision_period=0",
+                "skill_decision_period is 0");
   auto dir = TempDir("cli-config");
   std::ofstream(dir / "bad.yaml") << "run:\n  actors: 2\n  shardz: 3\n";
   ExpectRefused("--config " + (dir / "bad.yaml").string(), "unknown key 'run.shardz' (did you mean 'shards'?)");

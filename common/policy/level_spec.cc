@@ -108,6 +108,7 @@ Status LevelSpec::Validate() const {
     return bad("child_offsets must have num_actions entries");
   if (action_dim < 1) return bad("action_dim must be >= 1");
   if (timeout < 1 || decision_period < 0) return bad("timeout must be >= 1 and decision_period >= 0");
+  if (hold_decision && decision_period < 1) return bad("hold_decision needs a decision_period of at least 1");
   if (algorithm != "dqn" && algorithm != "ddpg" && algorithm != "sac")
     return bad("algorithm must be dqn, ddpg or sac, not '" + algorithm + "'");
   if (algorithm == "dqn" && !discrete_actions()) return bad("dqn needs discrete actions");

@@ -56,7 +56,7 @@ void SetNetwork(const LevelTrainOptions& o, LevelSpec* s) {
   s->explore = float(o.explore);
   s->timeout = int(o.timeout);
   s->decision_period = int(o.decision_period);
-  s->hold_decision = o.hold_decision && o.decision_period > 0;
+  s->hold_decision = o.hold_decision;
   s->child_ratio = float(o.child_ratio);
 }
 

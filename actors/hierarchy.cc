@@ -168,7 +168,7 @@ void HierarchyRunner::EndGoals(std::span<const float> next, bool done) {
     const policy::LevelSpec& s = models_->at(L)->spec();
     Ends& child = ends_[size_t(L) - 2];
     const bool period = s.decision_period > 0 && levels_[size_t(L) - 1].action_steps >= s.decision_period;
-    // a held action outlasts its child's goal: the child keeps the goal it reached until the period ends
+    // a held action outlasts its child's goal: the child keeps it, reached or timed out, until the period ends
     const bool child_ends_action = child.natural && !s.hold_decision;
     e.action_end = child_ends_action || period || e.goal_end || done;
     child.goal_end = child_ends_action || e.action_end || done;

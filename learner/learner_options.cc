@@ -38,6 +38,8 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
   v.String(p + "interaction_ends_goal", interaction_ends_goal, {"rare", "never"},
            "rare: a rare link's interaction ends its goal (a bounce) | never: reached or timed out (a push)");
+  v.Bool(p + "reach_needs_interaction", reach_needs_interaction,
+         "a rare link's goal is reached only at a detected interaction (a bounce); false: the target at the goal");
   if (p == "task_")
     v.FloatList(p + "pair_hidden", pair_hidden,
                 "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "

@@ -49,6 +49,11 @@ struct LevelTrainOptions {
   // bounce decides the ball's angle, the attempt is over), or only when reached or timed out
   // ("never": a push is one of many that bring the block to its goal)
   std::string interaction_ends_goal = "rare";
+  // a goal of a rare link counts as reached only at a step with a detected interaction (a ball
+  // velocity is the bounce's outcome only at the bounce); false: the target at the goal is
+  // enough (a block position stays where the last push left it, and the detector need not catch
+  // that push's last step)
+  bool reach_needs_interaction = true;
   // the task only: a pair network over the blocks (a multi-instance factor) with these
   // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp
   std::vector<double> pair_hidden;

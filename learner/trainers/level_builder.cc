@@ -210,7 +210,7 @@ Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& 
     COINS_RETURN_IF_ERROR(SetChildActions(*child, o, &s));
   }
   if (SparseLink(link)) {
-    s.require_interaction = true;
+    s.require_interaction = o.reach_needs_interaction;
     s.terminate_on_interaction = o.interaction_ends_goal == "rare";
     s.detector = detector::DetectorWeightsName(link.source(), link.target());
   }

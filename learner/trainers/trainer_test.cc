@@ -63,6 +63,11 @@ TEST(LevelBuilder, BreakoutChainLevels) {
   ASSERT_TRUE(pushed.ok()) << pushed.status().message();
   EXPECT_TRUE(pushed->require_interaction);
   EXPECT_FALSE(pushed->terminate_on_interaction);
+  sustained.reach_needs_interaction = false;  // the block at its goal is enough
+  auto placed = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, sustained);
+  ASSERT_TRUE(placed.ok()) << placed.status().message();
+  EXPECT_FALSE(placed->require_interaction);
+  EXPECT_EQ(placed->detector, "detector/Paddle->Ball");  // still rewards and counts pushes
   EXPECT_EQ(ball->detector, "detector/Paddle->Ball");
 
   auto task = BuildTaskSpec(b.spec, *ball, o.task);

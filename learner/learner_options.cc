@@ -26,6 +26,8 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.Float(p + "step_reward", step_reward, -1e6, 1e6, "reward of a step without success");
   v.Float(p + "success_reward", success_reward, -1e6, 1e6, "reward of the step reaching the goal");
   v.Float(p + "interaction_reward", interaction_reward, -1e6, 1e6, "reward of a link interaction without success");
+  v.Float(p + "episode_end_reward", episode_end_reward, -1e6, 1e6,
+          "added at a step ending the episode without success (a ball let drop)");
   v.Float(p + "goal_epsilon", goal_epsilon, 0, 2, "continuous goals: reached within (normalised units)");
   v.Int(p + "timeout", timeout, 1, 1 << 20, "env steps before a goal times out");
   v.Int(p + "decision_period", decision_period, 0, 1 << 20, "env steps per action at most (0: child's goal)");

@@ -35,6 +35,9 @@ struct LevelTrainOptions {
   bool prioritized = false;
   double priority_alpha = 0.2;  // only used when prioritized (replay.priority_exponent sets the shards')
   double step_reward = -1, success_reward = 0, interaction_reward = -1;
+  // added to a goal's reward at a step that ends the episode (not a time limit) without success:
+  // the ball skill letting the ball drop (also the rare board cleared under a ball goal)
+  double episode_end_reward = 0;
   double goal_epsilon = 0.024;        // continuous goals: reached within this, in normalised units
   int64_t timeout = 30;               // env steps before a goal times out
   int64_t decision_period = 0;        // env steps per action at most (0: until the child's goal ends)

@@ -48,7 +48,8 @@ Status ValidateSelection(const msg::SampleRequest& q) {
   if (q.goal_norm() != msg::GOAL_NORM_LINF && q.goal_norm() != msg::GOAL_NORM_L1)
     return Errorf("sample request {}: unknown goal_norm {}", id, q.goal_norm());
   for (auto [name, v] : {std::pair{"step_reward", q.step_reward()}, std::pair{"success_reward", q.success_reward()},
-                         std::pair{"interaction_reward", q.interaction_reward()}})
+                         std::pair{"interaction_reward", q.interaction_reward()},
+                         std::pair{"episode_end_reward", q.episode_end_reward()}})
     if (!std::isfinite(v)) return Errorf("sample request {}: {} {} is not finite", id, name, v);
   if (q.her_strategy() != msg::HER_NONE && q.goal_mask().empty())
     return Errorf("sample request {}: hindsight relabelling needs a goal_mask", id);
@@ -286,8 +287,10 @@ float Sampler::GoalReward(const msg::SampleRequest& req, uint16_t flags, const f
   const bool reached = GoalReached({achieved_.data(), m}, {goal, m}, mask, req.goal_epsilon(), norm);
   const bool interaction = (flags & msg::ROW_INTERACTION) != 0;
   const bool success = reached && (interaction || !req.require_interaction());
-  *terminal = success || (flags & msg::ROW_DONE) || (req.terminate_on_interaction() && interaction);
-  return success ? req.success_reward() : (interaction ? req.interaction_reward() : req.step_reward());
+  const bool done = (flags & msg::ROW_DONE) != 0;
+  *terminal = success || done || (req.terminate_on_interaction() && interaction);
+  if (success) return req.success_reward();
+  return (interaction ? req.interaction_reward() : req.step_reward()) + (done ? req.episode_end_reward() : 0.0f);
 }
 
 void Sampler::Walk(const ChunkStore& store, const msg::SampleRequest& req, Pos p, const float* goal, float* reward,

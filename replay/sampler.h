@@ -28,7 +28,8 @@
 //   interaction = the row's ROW_INTERACTION flag
 //   success     = GoalReached(mask * s'[target], goal, mask, goal_epsilon, goal_norm) and
 //                 (interaction or not require_interaction)
-//   r_j         = success ? success_reward : (interaction ? interaction_reward : step_reward)
+//   r_j         = success ? success_reward : (interaction ? interaction_reward : step_reward),
+//                 plus episode_end_reward when the row has ROW_DONE and no success
 //   terminal    = success or ROW_DONE or (terminate_on_interaction and interaction)
 //
 // Columns: state and next_state hold the requested features in order (all when features is

@@ -260,6 +260,13 @@ TEST(SamplerFields, GoalConditionedNStepRewards) {
   EXPECT_FLOAT_EQ(b[4].reward, -1 + 0.5f * -1);
   EXPECT_EQ(b[4].discount, 0.0f);
 
+  // the episode's end without success costs episode_end_reward on top (a ball let drop)
+  q.episode_end_reward(-3);
+  auto dropped = f.ByKey(q);
+  EXPECT_FLOAT_EQ(dropped[3].reward, -1 + 0.5f * -1 + 0.25f * (-1 - 3));
+  EXPECT_FLOAT_EQ(dropped[5].reward, -1 - 3);
+  EXPECT_FLOAT_EQ(dropped[1].reward, b[1].reward);  // its window ends before the episode does
+
   // an interaction ends the window
   q = GoalRows::Goal(3);
   q.terminate_on_interaction(true);
@@ -293,6 +300,9 @@ TEST(SamplerFields, StoredGoalsAreMaskedAndHindsightGoalsComeFromTheMaskedNextSt
   for (auto& [key, g] : fin) EXPECT_EQ(g.goal, (std::vector<float>{6, 0})) << key;
   EXPECT_EQ(fin[5].reward, 10.0f);  // reached at its own next state
   EXPECT_EQ(fin[5].discount, 0.0f);
+  q.episode_end_reward(-3);
+  EXPECT_EQ(f.ByKey(q)[5].reward, 10.0f);  // reached at the episode's end: no drop
+  q.episode_end_reward(0);
   EXPECT_EQ(fin[1].reward, -1.0f);
   EXPECT_EQ(fin[1].discount, 0.5f);
   EXPECT_EQ(fin[2].reward, -0.5f);  // interaction, not reached
@@ -376,6 +386,7 @@ TEST(SamplerFields, ValidateNamesEachNewField) {
   bad([](auto& x) { x.step_reward(std::nanf("")); }, "step_reward");
   bad([](auto& x) { x.success_reward(INFINITY); }, "success_reward");
   bad([](auto& x) { x.interaction_reward(-INFINITY); }, "interaction_reward");
+  bad([](auto& x) { x.episode_end_reward(NAN); }, "episode_end_reward");
   bad([](auto& x) { x.batch_size(4096); }, "feature_dim 2000 exceeds the reply bound");
   bad([](auto& x) { x.features(std::vector<uint16_t>(COINS_SAMPLE_MAX_MASK + 1, 0)); }, "features exceed");
   // a feature subset keeps a large batch within the bound

@@ -40,6 +40,7 @@ void FillRequest(const SampleSpec& s, msg::SampleRequest* q) {
   q->step_reward(s.step_reward);
   q->success_reward(s.success_reward);
   q->interaction_reward(s.interaction_reward);
+  q->episode_end_reward(s.episode_end_reward);
   q->require_interaction(s.require_interaction);
   q->terminate_on_interaction(s.terminate_on_interaction);
 }

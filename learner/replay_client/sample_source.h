@@ -41,6 +41,7 @@ struct SampleSpec {
   float step_reward = -1.0f;
   float success_reward = 0.0f;
   float interaction_reward = -1.0f;
+  float episode_end_reward = 0.0f;  // added at an episode's end without success
   bool require_interaction = false;
   bool terminate_on_interaction = false;
 

@@ -34,6 +34,7 @@ SampleSpec MakeSampleSpec(const policy::LevelSpec& s, const LevelTrainOptions& o
   q.step_reward = float(o.step_reward);
   q.success_reward = float(o.success_reward);
   q.interaction_reward = float(o.interaction_reward);
+  q.episode_end_reward = float(o.episode_end_reward);
   q.require_interaction = s.require_interaction;
   q.terminate_on_interaction = s.terminate_on_interaction;
   return q;

@@ -158,7 +158,10 @@ void HierarchyRunner::EndGoals(std::span<const float> next, bool done) {
     const bool reached = s.goal.Reached(achieved_.data(), ls.goal.data());
     e.success = reached && (e.interaction || !s.require_interaction);
     e.terminated = e.success || (s.terminate_on_interaction && e.interaction);
-    e.natural = e.terminated || ls.goal_steps >= s.timeout;
+    // a goal that interactions do not end (a block's position) ends once the target is there,
+    // whether or not the detector caught a push at this step; success still needs one
+    const bool placed = reached && !s.terminate_on_interaction;
+    e.natural = e.terminated || placed || ls.goal_steps >= s.timeout;
   }
   // a child's natural end ends its parent's decision; a parent's decision end cuts its child
   for (int L = acting_; L >= 1; --L) {

@@ -3,9 +3,10 @@
 // decision period runs out; level 1 picks primitive actions. The top acting level of a skill
 // being trained draws its own goals at random; the task level (above the top skill) has none.
 //
-// A goal ends when it is reached (with the link's interaction when the level requires one),
-// at any link interaction when the level terminates on interactions, at its timeout, when the
-// parent chooses anew, or at the episode's end. Interactions come from the learned detector
+// A goal ends when it is reached (with the link's interaction when the level requires one and
+// terminates on interactions; when it does not, the target at the goal is enough, though only a
+// reach with the interaction is a success), at any link interaction when the level terminates on
+// interactions, at its timeout, when the parent chooses anew, or at the episode's end. Interactions come from the learned detector
 // (detector/online_detector.h), never from the simulator's labels; those are only counted
 // against the detector for the figures.
 //

@@ -146,6 +146,44 @@ TEST(Hierarchy, FirstSkillRowsMarkReachedAndTimedOutGoals) {
   EXPECT_EQ(runner.counters().goals_ended[0], reached + timed_out);
 }
 
+// a level whose success needs its link's interaction, but whose goals interactions do not end
+// (pushing's block), ends a goal once reached without one: not a success, and not held to the
+// timeout (the paddle stands in for the block; no detector, so no interaction is ever seen)
+TEST(Hierarchy, AGoalThatNeedsAnInteractionToSucceedStillEndsWhenReached) {
+  auto env = envs::MakeEnv("breakout");
+  const envs::EnvSpec& spec = (*env)->spec();
+  policy::LevelSpec pushed = Paddle(spec);
+  pushed.require_interaction = true;
+  const HierarchyModels models = Models({pushed});
+  int action_dim, goal_dim;
+  Actor::RowWidths(spec, &action_dim, &goal_dim);
+  HierarchyRunner runner(spec, action_dim, goal_dim, 5);
+  runner.Configure(&models, 1, true);
+  const Recorder rec = RunSteps(**env, runner, 5000);
+  const int px = spec.factor_offset(spec.factor_index("Paddle")) + 1;
+  uint64_t placed = 0, timed_out = 0;
+  int since_goal = 0;
+  for (const auto& row : rec.rows) {
+    if (row.flags & msg::ROW_SEGMENT_START) {
+      since_goal = 0;
+      continue;
+    }
+    ++since_goal;
+    const bool at_goal = std::abs(row.state[size_t(px)] - row.goal[1]) <= 1.0f;
+    EXPECT_FALSE(row.flags & msg::ROW_SKILL_TERMINATED);  // never a success without the interaction
+    if (at_goal) EXPECT_TRUE(row.flags & msg::ROW_GOAL_END) << "a reached goal went on";
+    if (!(row.flags & msg::ROW_GOAL_END)) continue;
+    EXPECT_TRUE(at_goal || since_goal == 30 || (row.flags & msg::ROW_DONE)) << since_goal;
+    placed += at_goal;
+    timed_out += !at_goal && since_goal == 30;
+    since_goal = 0;
+  }
+  EXPECT_GT(placed, 20u);
+  EXPECT_GT(timed_out, 20u);
+  EXPECT_EQ(runner.counters().goals_reached[0], 0u);
+  EXPECT_EQ(runner.counters().goals_ended[0], placed + timed_out);
+}
+
 // the largest distance between a new goal and the paddle's x where it was drawn, over `steps`
 float FarthestNewGoal(envs::Env& env, HierarchyRunner& runner, int steps, int* goals) {
   const int px = env.spec().factor_offset(env.spec().factor_index("Paddle")) + 1;

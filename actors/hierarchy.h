@@ -5,10 +5,10 @@
 //
 // A goal ends when it is reached (with the link's interaction when the level requires one and
 // terminates on interactions; when it does not, the target at the goal is enough, though only a
-// reach with the interaction is a success), at any link interaction when the level terminates on
-// interactions, at its timeout, when the parent chooses anew, or at the episode's end. Interactions come from the
-// learned detector (detector/online_detector.h), never from the simulator's labels; those are only counted against the
-// detector for the figures.
+// reach with the interaction is a success), at any link interaction when the level terminates
+// on interactions, at its timeout, when the parent chooses anew, or at the episode's end.
+// Interactions come from the learned detector (detector/online_detector.h), never from the
+// simulator's labels; those are only counted against the detector for the figures.
 //
 // Rows go to a RowSink per stream (see idl/transition.idl): stream 0 gets every env step,
 // stream L >= 2 one row per decision of level L. Plain C++: no DDS. One thread at a time.

@@ -26,8 +26,9 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.Float(p + "step_reward", step_reward, -1e6, 1e6, "reward of a step without success");
   v.Float(p + "success_reward", success_reward, -1e6, 1e6, "reward of the step reaching the goal");
   v.Float(p + "interaction_reward", interaction_reward, -1e6, 1e6, "reward of a link interaction without success");
-  v.Float(p + "episode_end_reward", episode_end_reward, -1e6, 1e6,
-          "added at a step ending the episode without success (a ball let drop)");
+  if (p != "task_")
+    v.Float(p + "episode_end_reward", episode_end_reward, -1e6, 1e6,
+            "added at a step ending the episode without success (a ball let drop)");
   v.Float(p + "goal_epsilon", goal_epsilon, 0, 2, "continuous goals: reached within (normalised units)");
   v.Int(p + "timeout", timeout, 1, 1 << 20, "env steps before a goal times out");
   v.Int(p + "decision_period", decision_period, 0, 1 << 20, "env steps per action at most (0: child's goal)");
@@ -40,8 +41,9 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
   v.String(p + "interaction_ends_goal", interaction_ends_goal, {"rare", "never"},
            "rare: a rare link's interaction ends its goal (a bounce) | never: reached or timed out (a push)");
-  v.Bool(p + "reach_needs_interaction", reach_needs_interaction,
-         "a rare link's goal is reached only at a detected interaction (a bounce); false: the target at the goal");
+  if (p != "task_")
+    v.Bool(p + "reach_needs_interaction", reach_needs_interaction,
+           "a rare link's goal is reached only at a detected interaction (a bounce); false: the target at the goal");
   if (p == "task_")
     v.FloatList(p + "pair_hidden", pair_hidden,
                 "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "

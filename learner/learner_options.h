@@ -35,8 +35,9 @@ struct LevelTrainOptions {
   bool prioritized = false;
   double priority_alpha = 0.2;  // only used when prioritized (replay.priority_exponent sets the shards')
   double step_reward = -1, success_reward = 0, interaction_reward = -1;
-  // added to a goal's reward at a step that ends the episode (not a time limit) without success:
-  // the ball skill letting the ball drop (also the rare board cleared under a ball goal)
+  // skills only: added to a goal's reward at a step that ends the episode (not a time limit)
+  // without success: the ball skill letting the ball drop (also the rare board cleared under a
+  // ball goal)
   double episode_end_reward = 0;
   double goal_epsilon = 0.024;        // continuous goals: reached within this, in normalised units
   int64_t timeout = 30;               // env steps before a goal times out
@@ -52,10 +53,10 @@ struct LevelTrainOptions {
   // bounce decides the ball's angle, the attempt is over), or only when reached or timed out
   // ("never": a push is one of many that bring the block to its goal)
   std::string interaction_ends_goal = "rare";
-  // a goal of a rare link counts as reached only at a step with a detected interaction (a ball
-  // velocity is the bounce's outcome only at the bounce); false: the target at the goal is
-  // enough (a block position stays where the last push left it, and the detector need not catch
-  // that push's last step)
+  // skills only: a goal of a rare link counts as reached only at a step with a detected
+  // interaction (a ball velocity is the bounce's outcome only at the bounce); false: the target
+  // at the goal is enough (a block position stays where the last push left it, and the detector
+  // need not catch that push's last step)
   bool reach_needs_interaction = true;
   // the task only: a pair network over the blocks (a multi-instance factor) with these
   // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp

@@ -300,9 +300,9 @@ TEST(SamplerFields, StoredGoalsAreMaskedAndHindsightGoalsComeFromTheMaskedNextSt
   for (auto& [key, g] : fin) EXPECT_EQ(g.goal, (std::vector<float>{6, 0})) << key;
   EXPECT_EQ(fin[5].reward, 10.0f);  // reached at its own next state
   EXPECT_EQ(fin[5].discount, 0.0f);
-  q.episode_end_reward(-3);
-  EXPECT_EQ(f.ByKey(q)[5].reward, 10.0f);  // reached at the episode's end: no drop
-  q.episode_end_reward(0);
+  msg::SampleRequest charged = q;
+  charged.episode_end_reward(-3);
+  EXPECT_EQ(f.ByKey(charged)[5].reward, 10.0f);  // reached at the episode's end: no drop
   EXPECT_EQ(fin[1].reward, -1.0f);
   EXPECT_EQ(fin[1].discount, 0.5f);
   EXPECT_EQ(fin[2].reward, -0.5f);  // interaction, not reached

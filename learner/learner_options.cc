@@ -49,6 +49,9 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
                 "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "
                 "obstacle regions ([]: the Mlp)");
   if (p == "task_")
+    v.FloatList(p + "pair_head", pair_head,
+                "with pair_hidden: dense layers between the pair network's max-pool and its outputs ([]: none)");
+  if (p == "task_")
     v.String(p + "relative", relative, {"link", "all"},
              "link: the top link's source minus its target | all: every pair of single factors and, in a pair "
              "network, every single factor minus each instance");
@@ -56,8 +59,6 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
 
 Status LevelTrainOptions::Validate(const std::string& p) const {
   if (hidden.empty()) return Errorf("{}hidden needs at least one layer", p);
-  for (double h : hidden)
-    if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}hidden: {} is not a layer size", p, h);
   if (atoms > 1 && !(v_max > v_min)) return Errorf("{}v_max {} must exceed {}v_min {}", p, v_max, p, v_min);
   for (double o : child_offsets)
     if (!(o >= -1 && o <= 1)) return Errorf("{}child_offsets: {} is not in [-1, 1]", p, o);
@@ -69,8 +70,12 @@ Status LevelTrainOptions::Validate(const std::string& p) const {
         "primitive actions with a decision_period of at least 1 ({}decision_period is {})",
         p, p, p, decision_period);
   if (child_offsets.size() == 1) return Errorf("{}child_offsets needs at least 2 entries (or none)", p);
-  for (double h : pair_hidden)
-    if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}pair_hidden: {} is not a layer size", p, h);
+  for (const auto& [key, sizes] :
+       {std::pair{"hidden", &hidden}, std::pair{"pair_hidden", &pair_hidden}, std::pair{"pair_head", &pair_head}})
+    for (double h : *sizes)
+      if (!(h >= 1 && h <= 65536 && h == std::floor(h))) return Errorf("{}{}: {} is not a layer size", p, key, h);
+  if (!pair_head.empty() && pair_hidden.empty())
+    return Errorf("{}pair_head adds layers to a pair network: it needs {}pair_hidden", p, p);
   return Status::Ok();
 }
 

@@ -61,6 +61,9 @@ struct LevelTrainOptions {
   // the task only: a pair network over the blocks (a multi-instance factor) with these
   // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp
   std::vector<double> pair_hidden;
+  // the task only, with pair_hidden: dense layers between the pair network's max-pool and its
+  // outputs (the paper's 256); empty: the pool feeds the output layer
+  std::vector<double> pair_head;
   // the task only: which relative positions it sees. "link": its top link's source minus target
   // (Paddle-Ball, Gripper-Block); "all": every pair of single-instance factors (Block-Target too)
   // and, in a pair network, every single factor minus each instance (Block-Obstacle), the

@@ -34,6 +34,9 @@ TEST(Cli, BadRunInputIsRefusedBeforeStarting) {
   ExpectRefused("--set learner.primitive_hold_decision=true", "primitive_hold_decision holds an action");
   ExpectRefused("--set learner.skill_hold_decision=true --set learner.skill_decision_period=0",
                 "skill_decision_period is 0");
+  ExpectRefused("--set learner.task_pair_head=[64]", "task_pair_head adds layers to a pair network");
+  ExpectRefused("--set learner.task_pair_hidden=[16] --set learner.task_pair_head=[0.5]",
+                "task_pair_head: 0.5 is not a layer size");
   auto dir = TempDir("cli-config");
   std::ofstream(dir / "bad.yaml") << "run:\n  actors: 2\n  shardz: 3\n";
   ExpectRefused("--config " + (dir / "bad.yaml").string(), "unknown key 'run.shardz' (did you mean 'shards'?)");

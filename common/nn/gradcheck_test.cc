@@ -90,13 +90,17 @@ TEST(MlpGrad, AccumulateAddsGradients) {
   EXPECT_TRUE(net.params().grads.isApprox(2.0f * once, 1e-6f));
 }
 
-TEST(PairNetGrad, ParamsAndSourceMatchFiniteDifferences) {
+// with and without dense hidden layers between the pool and the output
+class PairNetGrad : public testing::TestWithParam<std::vector<int>> {};
+
+TEST_P(PairNetGrad, ParamsAndSourceMatchFiniteDifferences) {
   PairNetOptions o;
   o.source_dim = 3;
   o.instance_dim = 4;
   o.max_instances = 3;
   o.relative = {{0, 0, 1.0f, 0.0f}, {2, 1, 0.6f, 0.3f}};  // a scaled source row feeds its gradient
   o.point_sizes = {6, 5};
+  o.head_sizes = GetParam();
   o.output_dim = 3;
   o.hidden = Activation::kTanh;
   o.output = Activation::kTanh;
@@ -116,6 +120,8 @@ TEST(PairNetGrad, ParamsAndSourceMatchFiniteDifferences) {
   Eigen::VectorXf gs = Eigen::Map<Eigen::VectorXf>(ds.data(), ds.size());
   EXPECT_LT(RelError(src.data(), src.size(), gs, loss, 1e-2f), 1e-2);
 }
+
+INSTANTIATE_TEST_SUITE_P(Heads, PairNetGrad, testing::Values(std::vector<int>{}, std::vector<int>{4, 6}));
 
 TEST(HeadGrad, GaussianNll) {
   const int d = 3, batch = 5;

@@ -20,6 +20,8 @@ Status PairNetOptions::Validate() const {
   if (point_sizes.empty()) return Errorf("pairnet: point_sizes is empty");
   for (int s : point_sizes)
     if (s <= 0) return Errorf("pairnet: point size {} must be positive", s);
+  for (int s : head_sizes)
+    if (s <= 0) return Errorf("pairnet: head size {} must be positive", s);
   if (output_dim <= 0) return Errorf("pairnet: output_dim {} must be positive", output_dim);
   return Status::Ok();
 }
@@ -36,6 +38,7 @@ PairNet::PairNet(PairNetOptions options, uint64_t seed) : options_(std::move(opt
   // same block order and init as an Mlp of sizes {point_in, point_sizes..., output_dim}
   std::vector<int> sizes = {options_.point_input_dim()};
   sizes.insert(sizes.end(), options_.point_sizes.begin(), options_.point_sizes.end());
+  sizes.insert(sizes.end(), options_.head_sizes.begin(), options_.head_sizes.end());
   sizes.push_back(options_.output_dim);
   for (size_t l = 0; l + 1 < sizes.size(); ++l) {
     int w = params_.Add(fmt::format("layer{}.w", l), sizes[l + 1], sizes[l]);
@@ -46,6 +49,8 @@ PairNet::PairNet(PairNetOptions options, uint64_t seed) : options_(std::move(opt
   }
   acts_.resize(num_point_layers() + 1);
   deltas_.resize(num_point_layers());
+  head_acts_.resize(options_.head_sizes.size());
+  head_deltas_.resize(options_.head_sizes.size());
 }
 
 const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>& source,
@@ -107,14 +112,20 @@ const Eigen::MatrixXf& PairNet::Forward(const Eigen::Ref<const Eigen::MatrixXf>&
     }
   }
 
-  // dense layer after the pool
-  const int last = num_point_layers();
-  auto wd = params_.Value(2 * last);
-  auto bd = params_.Value(2 * last + 1);
-  out_.resize(wd.rows(), batch);
-  out_.noalias() = wd * pooled_;
-  out_.colwise() += bd.col(0);
-  ApplyActivation(options_.output, out_);
+  // dense layers after the pool: the head's hidden layers, then the output
+  const int last = num_point_layers(), dense = num_dense_layers();
+  const Eigen::MatrixXf* in = &pooled_;
+  for (int j = 0; j < dense; ++j) {
+    auto w = params_.Value(2 * (last + j));
+    auto bias = params_.Value(2 * (last + j) + 1);
+    const bool output = j + 1 == dense;
+    Eigen::MatrixXf& o = output ? out_ : head_acts_[size_t(j)];
+    o.resize(w.rows(), batch);
+    o.noalias() = w * *in;
+    o.colwise() += bias.col(0);
+    ApplyActivation(output ? options_.output : options_.hidden, o);
+    in = &o;
+  }
   return out_;
 }
 
@@ -125,20 +136,27 @@ const Eigen::MatrixXf& PairNet::Backward(const Eigen::Ref<const Eigen::MatrixXf>
   assert(dout.rows() == out_.rows() && dout.cols() == batch);
   const int last = num_point_layers();
 
-  // dense layer
+  // dense layers after the pool, from the output down to the pooled features' gradient
   out_delta_ = dout;
   ActivationBackward(options_.output, out_, out_delta_);
-  auto gw = params_.Grad(2 * last);
-  auto gb = params_.Grad(2 * last + 1);
-  if (accumulate) {
-    gw.noalias() += out_delta_ * pooled_.transpose();
-    gb.col(0) += out_delta_.rowwise().sum();
-  } else {
-    gw.noalias() = out_delta_ * pooled_.transpose();
-    gb.col(0) = out_delta_.rowwise().sum();
+  const Eigen::MatrixXf* delta = &out_delta_;
+  for (int j = num_dense_layers() - 1; j >= 0; --j) {
+    const Eigen::MatrixXf& in = j == 0 ? pooled_ : head_acts_[size_t(j) - 1];
+    auto gw = params_.Grad(2 * (last + j));
+    auto gb = params_.Grad(2 * (last + j) + 1);
+    if (accumulate) {
+      gw.noalias() += *delta * in.transpose();
+      gb.col(0) += delta->rowwise().sum();
+    } else {
+      gw.noalias() = *delta * in.transpose();
+      gb.col(0) = delta->rowwise().sum();
+    }
+    Eigen::MatrixXf& below = j == 0 ? pooled_grad_ : head_deltas_[size_t(j) - 1];
+    below.resize(in.rows(), batch);
+    below.noalias() = params_.Value(2 * (last + j)).transpose() * *delta;
+    if (j > 0) ActivationBackward(options_.hidden, in, below);
+    delta = &below;
   }
-  pooled_grad_.resize(pooled_.rows(), batch);
-  pooled_grad_.noalias() = params_.Value(2 * last).transpose() * out_delta_;
 
   // route the pooled gradient to the winning instance of each feature
   Eigen::MatrixXf& dh = deltas_[last - 1];
@@ -199,6 +217,10 @@ int64_t PairNet::MacsPerSample() const {
   int in = options_.point_input_dim();
   for (int s : options_.point_sizes) {
     macs += int64_t(in) * s * options_.max_instances;
+    in = s;
+  }
+  for (int s : options_.head_sizes) {
+    macs += int64_t(in) * s;
     in = s;
   }
   return macs + int64_t(in) * options_.output_dim;

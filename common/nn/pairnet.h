@@ -7,12 +7,12 @@
 // a normalised source feature into the instance feature's units, so r is a true difference of
 // positions); a shared per-point MLP (point_sizes, the hidden activation after every layer)
 // runs over all N * B points at once; a masked max-pool over instances gives one feature vector
-// per sample (zero when no instance is present); a dense layer (options.output activation)
-// maps it to output_dim.
+// per sample (zero when no instance is present); dense layers of head_sizes (the hidden
+// activation) then one to output_dim (options.output activation) map it to the output.
 //
 // Parameters are laid out exactly like an Mlp with sizes
-// {point_input_dim, point_sizes..., output_dim}, so with one present instance and no relative
-// features the pair-net equals that Mlp on [s_a; s_b] (tested). Like Mlp, workspaces are reused
+// {point_input_dim, point_sizes..., head_sizes..., output_dim}, so with one present instance and
+// no relative features the pair-net equals that Mlp on [s_a; s_b] (tested). Like Mlp, workspaces are reused
 // across calls and Backward refers to the most recent Forward. Backward can return the gradient with
 // respect to the source (a critic's action sits there); the instances' gradient is not provided.
 #pragma once
@@ -44,7 +44,8 @@ struct PairNetOptions {
   int max_instances = 1;                                      // N
   std::vector<RelativeFeature> relative;                      // appended to each point, in order
   std::vector<int> point_sizes = {128, 128, 128, 256, 1024};  // the paper's 1-d conv widths
-  int output_dim = 256;  // the dense layer after the pool (the paper's 256 linear layer)
+  std::vector<int> head_sizes;  // dense hidden layers after the pool (the paper's 256), then the output layer
+  int output_dim = 256;
   Activation hidden = Activation::kRelu;
   Activation output = Activation::kIdentity;
   int point_input_dim() const { return source_dim + instance_dim + int(relative.size()); }
@@ -77,15 +78,17 @@ class PairNet {
 
  private:
   int num_point_layers() const { return int(options_.point_sizes.size()); }
+  int num_dense_layers() const { return int(options_.head_sizes.size()) + 1; }  // after the pool
   void SourceGrad();  // source_grad_ from the deltas of the last Backward
 
   PairNetOptions options_;
   ParamSet params_;
-  std::vector<Eigen::MatrixXf> acts_;    // point activations, P x (N * B); acts_[0] = points
-  std::vector<Eigen::MatrixXf> deltas_;  // point deltas
-  Eigen::MatrixXf pooled_;               // F x B
-  Eigen::ArrayXXi argmax_;               // F x B: instance index of the max, -1 when none
-  Eigen::MatrixXf out_;                  // output_dim x B
+  std::vector<Eigen::MatrixXf> acts_;                     // point activations, P x (N * B); acts_[0] = points
+  std::vector<Eigen::MatrixXf> deltas_;                   // point deltas
+  Eigen::MatrixXf pooled_;                                // F x B
+  std::vector<Eigen::MatrixXf> head_acts_, head_deltas_;  // the dense hidden layers after the pool
+  Eigen::ArrayXXi argmax_;                                // F x B: instance index of the max, -1 when none
+  Eigen::MatrixXf out_;                                   // output_dim x B
   Eigen::MatrixXf out_delta_;
   Eigen::MatrixXf pooled_grad_;
   Eigen::MatrixXf point_grad_, source_grad_;  // d loss / d points, d loss / d source

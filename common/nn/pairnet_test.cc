@@ -42,6 +42,26 @@ TEST(PairNet, OneInstanceEqualsMlpOnConcatenatedInput) {
   EXPECT_TRUE(pair.params().grads.isApprox(mlp.params().grads, 1e-5f));
 }
 
+TEST(PairNet, OneInstanceWithAHeadEqualsTheMlpWithThoseLayers) {
+  PairNetOptions o = Options(1, 0);
+  o.head_sizes = {9, 8};
+  PairNet pair(o, 3);
+  Mlp mlp({{7, 16, 12, 9, 8, 5}, Activation::kRelu, Activation::kTanh}, 99);
+  ASSERT_TRUE(pair.params().SameShape(mlp.params()));
+  mlp.params().values = pair.params().values;
+  Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 6), inst = Eigen::MatrixXf::Random(4, 6);
+  Eigen::MatrixXf cat(7, 6);
+  cat << src, inst;
+  Eigen::MatrixXf a = pair.Forward(src, inst, Eigen::MatrixXf::Ones(1, 6));
+  Eigen::MatrixXf b = mlp.Forward(cat);
+  EXPECT_TRUE(a.isApprox(b, 1e-6f)) << (a - b).norm();
+  Eigen::MatrixXf r = Eigen::MatrixXf::Random(5, 6);
+  pair.Backward(r);
+  mlp.Backward(r);
+  EXPECT_TRUE(pair.params().grads.isApprox(mlp.params().grads, 1e-5f));
+  EXPECT_EQ(pair.MacsPerSample(), 7 * 16 + 16 * 12 + 12 * 9 + 9 * 8 + 8 * 5);
+}
+
 TEST(PairNet, MaskedInstancesDoNotMatterAndOrderDoesNot) {
   PairNet net(Options(3, 2), 5);
   Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 2), inst = Eigen::MatrixXf::Random(12, 2);

@@ -15,6 +15,7 @@ PairNetOptions PairOptions(const QNetOptions& o) {
   p.instance_dim = s.instance_dim;
   p.max_instances = s.instances;
   p.point_sizes = o.hidden;
+  p.head_sizes = s.head;
   p.output_dim = o.outputs;
   p.hidden = o.hidden_act;
   p.output = o.output_act;

@@ -33,6 +33,7 @@ struct InstanceSplit {
   // relative features of every point (pairnet.h); here `source` is an observation row outside
   // the instances and `instance` a row of one instance
   std::vector<RelativeFeature> relative;
+  std::vector<int> head;  // dense hidden layers between the pool and the outputs (pairnet.h)
   bool enabled() const { return instances > 0; }
 };
 

@@ -183,6 +183,7 @@ nlohmann::json ToJson(const LevelSpec& s) {
     nlohmann::json& rel = j["pair"]["relative"] = nlohmann::json::array();
     for (const nn::RelativeFeature& r : s.pair.relative) rel.push_back({r.source, r.instance, r.scale, r.shift});
   }
+  if (!s.pair.head.empty()) j["pair"]["head"] = s.pair.head;
   return j;
 }
 
@@ -243,6 +244,7 @@ LevelSpec ReadSpec(const nlohmann::json& j) {
     if (p.contains("relative"))  // absent in weights written before pair relative features existed
       for (const auto& r : p.at("relative"))
         s.pair.relative.push_back({r.at(0).get<int>(), r.at(1).get<int>(), r.at(2).get<float>(), r.at(3).get<float>()});
+    if (p.contains("head")) s.pair.head = p.at("head").get<std::vector<int>>();  // absent: no head layers
   }
   return s;
 }

@@ -189,13 +189,18 @@ class PushingTask : public ::testing::Test {
 
 // pushing's task (sac over relative block goals) and its vanilla baseline (sac on primitive
 // actions) with learner.task_pair_hidden: a pair network over the 15 obstacle regions, every
-// region present (the class has no attr); actors load what the trainer learns, and the state
-// round-trips
+// region present (the class has no attr), with and without dense layers after the pool
+// (learner.task_pair_head); actors load what the trainer learns, and the state round-trips
 TEST_F(PushingTask, PairNetworkOverTheObstacles) {
   const envs::EnvSpec& spec = this->spec();
-  for (const bool vanilla : {false, true}) {
+  for (const bool vanilla : {false, true, false}) {
+    if (vanilla) o.task.pair_head = {24};  // from the vanilla pass on, with a head
     auto task = vanilla ? BuildPrimitiveTaskSpec(spec, o.task) : BuildTaskSpec(spec, block, o.task);
     ASSERT_TRUE(task.ok()) << task.status().message();
+    auto parsed = policy::ParseLevelSpec(policy::ToJson(*task).dump());
+    ASSERT_TRUE(parsed.ok()) << parsed.status().message();
+    EXPECT_EQ(parsed->pair.head, task->pair.head);
+    EXPECT_EQ(task->pair.head, o.task.pair_head.empty() ? std::vector<int>{} : std::vector<int>{24});
     EXPECT_EQ(task->algorithm, "sac");
     EXPECT_EQ(task->pair_factor, "Obstacle");
     EXPECT_EQ(task->pair.instances, 15);
@@ -204,7 +209,7 @@ TEST_F(PushingTask, PairNetworkOverTheObstacles) {
     EXPECT_EQ(task->action_dim, vanilla ? 3 : 2);  // primitive displacements, or block x, y goals
     auto trainer = PolicyTrainer::Create(*task, o.task, 5);
     ASSERT_TRUE(trainer.ok()) << trainer.status().message();
-    auto net = policy::PolicyNet::Create(*task);
+    auto net = policy::PolicyNet::Create(*parsed);
     ASSERT_TRUE(net.ok()) << net.status().message();
     ASSERT_TRUE(net->Load((*trainer)->ActingBlob(), "acting").ok());
     EXPECT_EQ(nn::ToBlob(net->params()), (*trainer)->ActingBlob());

@@ -259,44 +259,24 @@ void Sampler::ChooseGoal(const ChunkStore& store, const msg::SampleRequest& req,
                          std::mt19937_64* rng) {
   const uint32_t m = plan_.mask_size;
   const float* mask = req.goal_mask().data();
-  const auto stored_goal = [&] {
-    const float* stored = store.goals(start.chunk) + size_t(start.row) * store.goal_dim();
-    for (uint32_t j = 0; j < m; ++j) goal[j] = stored[j] * mask[j];
-  };
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const bool relabel =
       store.goal_dim() == 0 || (req.her_strategy() != msg::HER_NONE && unit(*rng) < double(req.her_ratio()));
-  // without stored goals every sample is relabelled, from any row if need be
-  const int64_t len = relabel ? WalkSegment(store, req, start, store.goal_dim() != 0) : 0;
-  if (len == 0) return stored_goal();  // not relabelled, or no row of the segment could be a success
+  if (!relabel) {
+    const float* stored = store.goals(start.chunk) + size_t(start.row) * store.goal_dim();
+    for (uint32_t j = 0; j < m; ++j) goal[j] = stored[j] * mask[j];
+    return;
+  }
+  // walk the segment from the sampled row to its end (bounded); row g's state is the next
+  // state of the step into g
+  int64_t len = 0;
+  Pos w = start;
+  walk_[size_t(len++)] = w;
+  while (len < options_.max_segment_rows && Advance(store, &w)) walk_[size_t(len++)] = w;
   const auto strategy = req.her_strategy() == msg::HER_FUTURE ? HerStrategy::kFuture : HerStrategy::kFinal;
-  const int64_t index = SelectHindsightIndex(strategy, 0, 0, len, rng);
-  const Pos g = walk_[size_t(index)];
+  const Pos g = walk_[size_t(SelectHindsightIndex(strategy, 0, 0, len, rng))];
   store.DecodeRow(g.chunk, g.row, goal_state_.data());
   MaskedGoal({goal_state_.data() + req.target_offset(), m}, {mask, m}, {goal, m});
-}
-
-int64_t Sampler::WalkSegment(const ChunkStore& store, const msg::SampleRequest& req, Pos start,
-                             bool success_rows_only) {
-  // row g's state is the next state of the step into g, so g relabels to a success only when that
-  // step could succeed: any step, or with require_interaction one whose interaction was detected
-  const auto candidate = [&](Pos p) {
-    return !success_rows_only || !req.require_interaction() ||
-           (store.flags(p.chunk)[p.row] & msg::ROW_INTERACTION) != 0;
-  };
-  const bool last_row_only = req.her_strategy() != msg::HER_FUTURE;
-  int64_t len = 0, walked = 1;
-  Pos w = start;
-  bool last_kept = candidate(w);
-  if (last_kept) walk_[size_t(len++)] = w;
-  while (walked < options_.max_segment_rows && Advance(store, &w)) {
-    ++walked;
-    last_kept = candidate(w);
-    if (last_kept) walk_[size_t(len++)] = w;
-  }
-  // final: the segment's last row, or none when that row cannot be a success
-  if (last_row_only && !last_kept) return 0;
-  return len;
 }
 
 float Sampler::GoalReward(const msg::SampleRequest& req, uint16_t flags, const float* goal, bool* terminal) {

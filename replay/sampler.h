@@ -106,13 +106,8 @@ class Sampler {
                  std::mt19937_64* rng);
   // the columns that come from row p alone: key, action, interactions, flags, level, version
   void RowColumns(const ChunkStore& store, Pos p, uint32_t i, msg::SampleReply* reply) const;
-  // the goal of a goal-conditioned sample at row p (mask_size floats), stored or relabelled; a
-  // segment with no row that could be a success under the relabelled goal keeps the stored goal
+  // the goal of a goal-conditioned sample at row p (mask_size floats), stored or relabelled
   void ChooseGoal(const ChunkStore& store, const msg::SampleRequest& req, Pos p, float* goal, std::mt19937_64* rng);
-  // walks the segment from start to its end (max_segment_rows at most) and keeps in walk_ the rows
-  // a hindsight goal may come from (with success_rows_only and require_interaction: those whose
-  // interaction was detected); returns how many, 0 for a final strategy whose last row is not kept
-  int64_t WalkSegment(const ChunkStore& store, const msg::SampleRequest& req, Pos start, bool success_rows_only);
   // walks up to n_step rows from p applying deltas to next_; writes the n-step reward and
   // discount (goal: the goal-conditioned rewards, nullptr: the stored ones)
   void Walk(const ChunkStore& store, const msg::SampleRequest& req, Pos p, const float* goal, float* reward,

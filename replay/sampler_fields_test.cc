@@ -331,47 +331,6 @@ TEST(SamplerFields, StoredGoalsAreMaskedAndHindsightGoalsComeFromTheMaskedNextSt
   EXPECT_GE(goals.size(), 5u);
 }
 
-TEST(SamplerFields, HindsightGoalsOfAnInteractionLinkComeOnlyFromDetectedInteractions) {
-  GoalRows f;
-  // future: row 2 is the one interaction, so rows 1 and 2 relabel to its target (2, 3) and
-  // succeed there; rows 3 to 5 have none ahead and keep the stored goal (5, 7)
-  msg::SampleRequest q = GoalRows::Goal(1);
-  q.require_interaction(true);
-  q.her_strategy(msg::HER_FUTURE);
-  q.her_ratio(1);
-  auto fut = f.ByKey(q);
-  ASSERT_EQ(fut.size(), 5u);
-  for (uint64_t key : {1, 2}) EXPECT_EQ(fut[key].goal, (std::vector<float>{2, 3})) << key;
-  for (uint64_t key : {3, 4, 5}) EXPECT_EQ(fut[key].goal, (std::vector<float>{5, 7})) << key;
-  EXPECT_EQ(fut[2].reward, 10.0f);
-  EXPECT_EQ(fut[1].reward, -1.0f);
-  // final: the segment ends at row 5 without an interaction (a ball let drop): stored goals
-  q.her_strategy(msg::HER_FINAL);
-  for (auto& [key, g] : f.ByKey(q)) EXPECT_EQ(g.goal, (std::vector<float>{5, 7})) << key;
-  // without require_interaction any row's target may be a goal, as before
-  q.require_interaction(false);
-  for (auto& [key, g] : f.ByKey(q)) EXPECT_EQ(g.goal, (std::vector<float>{6, 6})) << key;
-
-  // final over a segment that ends in an interaction (a bounce) and one that ends without (a drop)
-  Fixture bounce;
-  std::vector<TestRow> rows{{.state = {0, 0}, .flags = msg::ROW_SEGMENT_START, .goal = {9}}};
-  const uint16_t bounced = msg::ROW_INTERACTION | msg::ROW_GOAL_END;
-  for (int r = 1; r <= 5; ++r)
-    rows.push_back({.state = {float(r), float(10 * r)}, .flags = uint16_t(r == 2 ? bounced : 0), .goal = {9}});
-  rows.back().flags = msg::ROW_DONE;
-  bounce.Add(MakeBatch({2, 1}, 1, 0, rows));
-  q = Request(300);
-  q.goal_mask({1});
-  q.target_offset(1);
-  q.require_interaction(true);
-  q.her_strategy(msg::HER_FINAL);
-  q.her_ratio(1);
-  auto fin = bounce.ByKey(q);
-  ASSERT_EQ(fin.size(), 5u);
-  for (uint64_t key : {1, 2}) EXPECT_EQ(fin[key].goal[0], 20.0f) << key;
-  for (uint64_t key : {3, 4, 5}) EXPECT_EQ(fin[key].goal[0], 9.0f) << key;
-}
-
 TEST(SamplerFields, GoalEndEndsSegmentsWithoutTerminating) {
   Fixture f;
   const TestLayout layout{1, 1};

@@ -23,30 +23,11 @@ PairNetOptions Options(int instances, int relative) {
   return o;
 }
 
-TEST(PairNet, OneInstanceEqualsMlpOnConcatenatedInput) {
-  PairNet pair(Options(1, 0), 3);
-  Mlp mlp({{7, 16, 12, 5}, Activation::kRelu, Activation::kTanh}, 99);
-  ASSERT_TRUE(pair.params().SameShape(mlp.params()));
-  mlp.params().values = pair.params().values;
-  Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 6), inst = Eigen::MatrixXf::Random(4, 6);
-  Eigen::MatrixXf mask = Eigen::MatrixXf::Ones(1, 6);
-  Eigen::MatrixXf cat(7, 6);
-  cat << src, inst;
-  Eigen::MatrixXf a = pair.Forward(src, inst, mask);
-  Eigen::MatrixXf b = mlp.Forward(cat);
-  EXPECT_TRUE(a.isApprox(b, 1e-6f)) << (a - b).norm();
-  // and the gradients agree too
-  Eigen::MatrixXf r = Eigen::MatrixXf::Random(5, 6);
-  pair.Backward(r);
-  mlp.Backward(r);
-  EXPECT_TRUE(pair.params().grads.isApprox(mlp.params().grads, 1e-5f));
-}
-
-TEST(PairNet, OneInstanceWithAHeadEqualsTheMlpWithThoseLayers) {
-  PairNetOptions o = Options(1, 0);
-  o.head_sizes = {9, 8};
+// a pair-net of one present instance (o: no relative features) equals the Mlp of `sizes` on
+// [s_a; s_b] given the same parameters, in its outputs and in its gradients
+void ExpectEqualsMlp(const PairNetOptions& o, std::vector<int> sizes) {
   PairNet pair(o, 3);
-  Mlp mlp({{7, 16, 12, 9, 8, 5}, Activation::kRelu, Activation::kTanh}, 99);
+  Mlp mlp({std::move(sizes), Activation::kRelu, Activation::kTanh}, 99);
   ASSERT_TRUE(pair.params().SameShape(mlp.params()));
   mlp.params().values = pair.params().values;
   Eigen::MatrixXf src = Eigen::MatrixXf::Random(3, 6), inst = Eigen::MatrixXf::Random(4, 6);
@@ -59,7 +40,15 @@ TEST(PairNet, OneInstanceWithAHeadEqualsTheMlpWithThoseLayers) {
   pair.Backward(r);
   mlp.Backward(r);
   EXPECT_TRUE(pair.params().grads.isApprox(mlp.params().grads, 1e-5f));
-  EXPECT_EQ(pair.MacsPerSample(), 7 * 16 + 16 * 12 + 12 * 9 + 9 * 8 + 8 * 5);
+}
+
+TEST(PairNet, OneInstanceEqualsMlpOnConcatenatedInput) { ExpectEqualsMlp(Options(1, 0), {7, 16, 12, 5}); }
+
+TEST(PairNet, OneInstanceWithAHeadEqualsTheMlpWithThoseLayers) {
+  PairNetOptions o = Options(1, 0);
+  o.head_sizes = {9, 8};
+  ExpectEqualsMlp(o, {7, 16, 12, 9, 8, 5});
+  EXPECT_EQ(PairNet(o, 3).MacsPerSample(), 7 * 16 + 16 * 12 + 12 * 9 + 9 * 8 + 8 * 5);
 }
 
 TEST(PairNet, MaskedInstancesDoNotMatterAndOrderDoesNot) {

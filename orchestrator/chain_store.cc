@@ -84,10 +84,15 @@ Result<ChainState> ChainStore::LoadFile(const fs::path& path) const {
   if (j.contains("config") && j["config"].is_object())
     for (const auto& [k, v] : j["config"].items())
       if (v.is_string()) theirs[k] = v.get<std::string>();
-  bool added = false;  // keys the file predates
+  bool rewritten = false;  // keys the file predates, or keys it holds that this version no longer reads
+  for (auto it = theirs.begin(); it != theirs.end();)
+    if (IsRetiredAtItsValue(it->first, it->second))
+      it = theirs.erase(it), rewritten = true;
+    else
+      ++it;
   for (const auto& [k, v] : defaults_)
-    if (!theirs.count(k)) theirs[k] = v, added = true;
-  if ((!added && StringField(j, "config_hash") != hash_) || theirs != fingerprint_) {
+    if (!theirs.count(k)) theirs[k] = v, rewritten = true;
+  if ((!rewritten && StringField(j, "config_hash") != hash_) || theirs != fingerprint_) {
     std::string diff = FirstDifference(fingerprint_, theirs, path.string());
     return Errorf("chain state {} was written for another config: {}", path.string(),
                   diff.empty() ? "its config hash differs" : diff);

@@ -36,7 +36,9 @@ class ChainStore {
   ChainStore(std::filesystem::path dir, ConfigValues fingerprint);
   // a file written before a config key existed is read as holding that key's default here
   // (defaults: the ChainFingerprint of the default config), so adding a key does not orphan
-  // every older run; a key changed from its default still refuses the file
+  // every older run; a key changed from its default still refuses the file. Likewise a key the
+  // file holds that this version no longer reads is dropped when it holds its retired value
+  // (common/config/config.h, IsRetiredAtItsValue) and refuses the file otherwise
   void AcceptKeysAddedSince(ConfigValues defaults) { defaults_ = std::move(defaults); }
 
   std::filesystem::path StatePath() const { return dir_ / "chain.json"; }

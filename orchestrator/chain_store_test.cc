@@ -161,6 +161,24 @@ TEST(ChainStore, AFileThatPredatesAKeyLoadsWhileTheKeyHoldsItsDefault) {
       << refused.status().message();
 }
 
+// a file holding a key this version no longer reads: loads while the key holds its retired value,
+// is refused naming the key otherwise
+TEST(ChainStore, AFileWithARetiredKeyLoadsOnlyAtItsRetiredValue) {
+  fs::path dir = FreshDir("retired-key");
+  ConfigValues then = Fingerprint();
+  then["learner.task_episode_end_reward"] = "0";
+  ASSERT_TRUE(ChainStore(dir, then).Save(SomeState()).ok());
+  auto loaded = ChainStore(dir, Fingerprint()).Load();
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message();
+  EXPECT_EQ((*loaded)->links, SomeState().links);
+  then["learner.task_episode_end_reward"] = "-1";
+  ASSERT_TRUE(ChainStore(dir, then).Save(SomeState()).ok());
+  auto refused = ChainStore(dir, Fingerprint()).Load();
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("learner.task_episode_end_reward"), std::string::npos)
+      << refused.status().message();
+}
+
 // states written before scores kept their chance count (and the count behind their goal set)
 // still load, with counts of 0
 TEST(ChainStore, AScoreWithoutItsChanceCountLoadsAsZero) {

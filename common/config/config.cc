@@ -27,6 +27,32 @@ std::string MovedKey(const std::string& section_key) {
   return "";
 }
 
+// keys no longer read and the value this version behaves as (config.h, IsRetiredAtItsValue)
+struct RetiredKey {
+  const char* key;
+  const char* value;
+};
+constexpr RetiredKey kRetired[] = {
+    // the task level: no episode it ends early without success, and its goals are not a rare link's
+    {"learner.task_episode_end_reward", "0"},
+    {"learner.task_reach_needs_interaction", "true"},
+};
+
+// the same value written either way: the same text, or numbers that are equal ("0", "0.0")
+bool SameValueText(const std::string& a, const std::string& b) {
+  if (a == b) return true;
+  char* end_a = nullptr;
+  char* end_b = nullptr;
+  const double x = std::strtod(a.c_str(), &end_a), y = std::strtod(b.c_str(), &end_b);
+  return !a.empty() && !b.empty() && end_a == a.c_str() + a.size() && end_b == b.c_str() + b.size() && x == y;
+}
+
+const RetiredKey* FindRetired(const std::string& section_key) {
+  for (const auto& r : kRetired)
+    if (section_key == r.key) return &r;
+  return nullptr;
+}
+
 // a map key as a name; keys that are lists, maps or null are not names
 bool KeyName(const YAML::Node& key, std::string* name) {
   if (!key.IsScalar()) return false;
@@ -125,6 +151,12 @@ class YamlReader final : public ConfigVisitor {
       if (!used_.count(key)) {
         if (std::string moved = MovedKey(where_ + "." + key); !moved.empty())
           return Errorf("{}: '{}.{}' is now '{}'", origin_, where_, key, moved);
+        const std::string full = where_ + "." + key;
+        if (std::string retired = RetiredKeyValue(full); !retired.empty()) {
+          if (kv.second.IsScalar() && IsRetiredAtItsValue(full, kv.second.Scalar())) continue;
+          return Errorf("{}: '{}' is no longer read: only its old value {} can be ignored, got {}", origin_, full,
+                        retired, Show(kv.second));
+        }
         std::string hint = ClosestMatch(key, fields_);
         return Errorf("{}: unknown key '{}.{}'{}", origin_, where_, key,
                       hint.empty() ? "" : " (did you mean '" + hint + "'?)");
@@ -284,6 +316,16 @@ size_t EditDistance(std::string_view a, std::string_view b) {
 }
 
 }  // namespace
+
+bool IsRetiredAtItsValue(const std::string& section_key, const std::string& value) {
+  const RetiredKey* r = FindRetired(section_key);
+  return r && SameValueText(value, r->value);
+}
+
+std::string RetiredKeyValue(const std::string& section_key) {
+  const RetiredKey* r = FindRetired(section_key);
+  return r ? std::string(r->value) : std::string();
+}
 
 void VisitInt(ConfigVisitor& v, std::string_view key, int& value, int64_t min, int64_t max, std::string_view doc) {
   int64_t wide = value;

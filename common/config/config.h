@@ -102,6 +102,15 @@ class ConfigLoader {
 // the options a report was made with
 std::string ConfigJson(const ConfigSection& section);
 
+// Keys that earlier versions of coins wrote and this one no longer reads, each with the value at
+// which this version behaves as they did. A config (or a chain state's recorded config) holding
+// one at that value is read as if the key were absent; at any other value it is refused, naming
+// the key, since ignoring it would change what the run does. Takes "section.key" and the value's
+// text.
+bool IsRetiredAtItsValue(const std::string& section_key, const std::string& value);
+// the retired key's value as text, or "" when the key is not retired
+std::string RetiredKeyValue(const std::string& section_key);
+
 // the closest candidate by edit distance, or "" when none is close
 std::string ClosestMatch(std::string_view word, const std::vector<std::string>& candidates);
 

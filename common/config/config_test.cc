@@ -62,6 +62,25 @@ TEST_F(Fixture, UnknownKeyNamesKeyAndSuggests) {
   EXPECT_EQ(opts.capacity, 100);
 }
 
+// a key earlier versions wrote and this one no longer reads: ignored at the value this version
+// behaves as, refused naming the key at any other
+TEST_F(Fixture, ARetiredKeyIsIgnoredOnlyAtItsOldValue) {
+  TestOptions learner;
+  ConfigLoader old_file({ConfigSection::Of("learner", learner)});
+  ASSERT_TRUE(old_file.LoadText("learner:\n  task_episode_end_reward: 0.0\n  ratio: 0.25\n", "old.yaml").ok());
+  EXPECT_DOUBLE_EQ(learner.ratio, 0.25) << "the other keys of the section still load";
+  Status s = old_file.LoadText("learner:\n  task_episode_end_reward: -1\n", "old.yaml");
+  EXPECT_EQ(s.message(),
+            "old.yaml: 'learner.task_episode_end_reward' is no longer read: only its old value 0 can be ignored, "
+            "got '-1'");
+  EXPECT_TRUE(IsRetiredAtItsValue("learner.task_episode_end_reward", "0"));
+  EXPECT_FALSE(IsRetiredAtItsValue("learner.task_episode_end_reward", "0x"));
+  EXPECT_FALSE(IsRetiredAtItsValue("learner.skill_episode_end_reward", "0"));
+  EXPECT_TRUE(IsRetiredAtItsValue("learner.task_reach_needs_interaction", "true"));
+  EXPECT_FALSE(IsRetiredAtItsValue("learner.task_reach_needs_interaction", "false"));
+  EXPECT_EQ(RetiredKeyValue("learner.skill_episode_end_reward"), "");
+}
+
 TEST_F(Fixture, KeysThatAreNotNamesAreOneLineErrors) {
   // a list, a map or null as a key, at the top level or in a section (yaml-cpp threw, and every
   // binary aborted)

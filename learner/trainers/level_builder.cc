@@ -149,6 +149,7 @@ void AddStateFactors(const envs::EnvSpec& env, const LevelTrainOptions& o, Level
                  fs.instances,
                  fs.features,
                  attr == fs.feature_names.end() ? -1 : int(attr - fs.feature_names.begin()),
+                 {},
                  {}};
       s->hidden.assign(o.pair_hidden.begin(), o.pair_hidden.end());
       s->pair.head.assign(o.pair_head.begin(), o.pair_head.end());

@@ -44,17 +44,18 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   if (p != "task_")
     v.Bool(p + "reach_needs_interaction", reach_needs_interaction,
            "a rare link's goal is reached only at a detected interaction (a bounce); false: the target at the goal");
-  if (p == "task_")
-    v.FloatList(p + "pair_hidden", pair_hidden,
-                "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "
-                "obstacle regions ([]: the Mlp)");
-  if (p == "task_")
-    v.FloatList(p + "pair_head", pair_head,
-                "with pair_hidden: dense layers between the pair network's max-pool and its outputs ([]: none)");
-  if (p == "task_")
-    v.String(p + "relative", relative, {"link", "all"},
-             "link: the top link's source minus its target | all: every pair of single factors and, in a pair "
-             "network, every single factor minus each instance");
+  if (p == "task_") VisitTaskInputs(v, p);
+}
+
+void LevelTrainOptions::VisitTaskInputs(ConfigVisitor& v, const std::string& p) {
+  v.FloatList(p + "pair_hidden", pair_hidden,
+              "per-instance layers of a pair network over the first multi-instance factor, the blocks or the "
+              "obstacle regions ([]: the Mlp)");
+  v.FloatList(p + "pair_head", pair_head,
+              "with pair_hidden: dense layers between the pair network's max-pool and its outputs ([]: none)");
+  v.String(p + "relative", relative, {"link", "all"},
+           "link: the top link's source minus its target | all: every pair of single factors and, in a pair "
+           "network, every single factor minus each instance");
 }
 
 Status LevelTrainOptions::Validate(const std::string& p) const {

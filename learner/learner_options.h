@@ -72,6 +72,9 @@ struct LevelTrainOptions {
 
   void Visit(ConfigVisitor& v, const std::string& p);
   Status Validate(const std::string& p) const;
+
+ private:
+  void VisitTaskInputs(ConfigVisitor& v, const std::string& p);  // the task's network inputs
 };
 
 struct LearnerOptions {

@@ -119,10 +119,13 @@ std::vector<std::string> RunArgv(const ExperimentFlags& f, const std::string& va
   } else if (method == "finetune") {
     argv = {coins, "transfer", PretrainDir(f, seed).string(), "--env", env, "--steps", std::to_string(steps)};
   } else {
+    // primitive actions every env step: a chain task's cap on its decisions does not apply
     argv = {coins,      "run",
             "--config", (fs::path(f.chain) / "config.yaml").string(),
             "--env",    env,
             "--set",    "orchestrator.chain=none",
+            "--set",    "learner.task_decision_period=0",
+            "--set",    "learner.task_hold_decision=false",
             "--set",    "run.steps=0",
             "--set",    fmt::format("orchestrator.task_max_steps={}", steps),
             "--set",    fmt::format("orchestrator.task_min_steps={}", steps),

@@ -153,7 +153,7 @@ class YamlReader final : public ConfigVisitor {
           return Errorf("{}: '{}.{}' is now '{}'", origin_, where_, key, moved);
         const std::string full = where_ + "." + key;
         if (std::string retired = RetiredKeyValue(full); !retired.empty()) {
-          if (kv.second.IsScalar() && IsRetiredAtItsValue(full, kv.second.Scalar())) continue;
+          if (kv.second.IsScalar() && SameValueText(kv.second.Scalar(), retired)) continue;
           return Errorf("{}: '{}' is no longer read: only its old value {} can be ignored, got {}", origin_, full,
                         retired, Show(kv.second));
         }

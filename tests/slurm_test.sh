@@ -115,7 +115,8 @@ done
 echo "slurm_test: cluster up (domain $domain, ports $port..$((port + 4))) after $((SECONDS - start_time)) s"
 
 # run_job NAME SECONDS SBATCH_ARGS... -- SCRIPT_ARGS...: submits coins.sbatch, waits for the end
-# (bounded) and checks that the job completed with exit code 0
+# (bounded) and checks that the job completed with exit code 0; the wait for a discovery server
+# (10 s in breakout.yaml) scales with the test's time scale like every other window here
 run_job() {
   local name=$1 limit=$(($2 * scale)) args=()
   shift 2
@@ -124,7 +125,7 @@ run_job() {
   local t0=$SECONDS id state=
   id=$(COINS_BIN=$coins COINS_CONFIG=$repo/deploy/configs/breakout.yaml COINS_DIR=$tmp/$name COINS_STEPS=$steps \
     COINS_DISCOVERY_PORT=$((port + 3)) sbatch --parsable -o "$tmp/$name.out" "${args[@]}" \
-    "$repo/deploy/slurm/coins.sbatch" --set "dds.domain=$domain" "$@")
+    "$repo/deploy/slurm/coins.sbatch" --set "dds.domain=$domain" --set "dds.server_wait_s=$((10 * scale))" "$@")
   while ((SECONDS - t0 < limit)); do
     state=$(scontrol show job -o "$id" | grep -o 'JobState=[A-Z_]*' | cut -d= -f2)
     case $state in PENDING | RUNNING | CONFIGURING | COMPLETING | SUSPENDED) sleep 0.5 ;; *) break ;; esac

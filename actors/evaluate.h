@@ -51,6 +51,9 @@ struct GoalTally {
 struct EvalResult {
   std::vector<double> returns;  // one per episode (a skill: per episode the env ended)
   double return_mean = 0, return_sd = 0;
+  // the median and the lowest return: a few episodes that go badly (pushing: the block beyond the
+  // fingertip's reach, -2 a step to the horizon) can move the mean far from the typical episode
+  double return_median = 0, return_min = 0;
   uint64_t goals_ended = 0, goals_reached = 0;  // the acting skill's (task: the top skill's)
   uint64_t goals_interacted = 0;                // of the goals ended, those ended by a link interaction
   // goals an episode end with a positive reward cut before any interaction (Breakout: the ball

@@ -505,6 +505,10 @@ TEST(Evaluate, RandomActionsPlayWholeEpisodesLikeATask) {
   });
   ASSERT_TRUE(r.ok()) << r.status().message();
   EXPECT_EQ(r->returns, sums);
+  std::vector<double> sorted = sums;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_DOUBLE_EQ(r->return_median, 0.5 * (sorted[19] + sorted[20])) << "40 episodes: the middle two";
+  EXPECT_DOUBLE_EQ(r->return_min, sorted.front());
   EXPECT_EQ(r->episodes_done, o.episodes) << "each ends at a drop or at the target";
   EXPECT_EQ(actions, (std::set<float>{0, 1, 2, 3}));
   EXPECT_EQ(r->goals_ended, 0u);

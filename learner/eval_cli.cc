@@ -24,12 +24,18 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// the run's env from RUN_DIR/config.yaml
-Result<std::string> RunEnv(const std::string& run_dir) {
+// what an evaluation takes from RUN_DIR/config.yaml
+struct RunConfig {
+  std::string env;
+  double eval_task_explore = 0;  // the task's epsilon in the run's periodic evaluations
+};
+
+Result<RunConfig> ReadRunConfig(const std::string& run_dir) {
   RunOptions run;
-  ConfigLoader loader({ConfigSection::Of("run", run)});
+  LearnerOptions learner;
+  ConfigLoader loader({ConfigSection::Of("run", run), ConfigSection::Of("learner", learner)});
   if (Status s = loader.LoadFile((fs::path(run_dir) / "config.yaml").string()); !s.ok()) return s;
-  return run.env;
+  return RunConfig{run.env, learner.eval_task_explore};
 }
 
 int FindLevel(const LearnerCore& core, const std::string& skill, std::string* names) {
@@ -140,6 +146,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
                       {"episodes", r.returns.size()},
                       {"return_mean", r.return_mean},
                       {"return_sd", r.return_sd},
+                      {"return_median", r.return_median},
+                      {"return_min", r.return_min},
                       {"returns", r.returns},
                       {"goals", r.goals_ended},
                       {"goals_cut_by_win", r.goals_cut_by_win},
@@ -173,8 +181,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
     const std::string how = spec.algorithm == "dqn" ? fmt::format("task epsilon {}", f.explore)
                             : f.explore > 0         ? std::string("the task samples its policy")
                                                     : std::string("greedy");
-    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes ({})", r.return_mean, r.return_sd,
-                             r.returns.size(), how)
+    std::cout << fmt::format("  return {:.2f} +- {:.2f} over {} episodes ({}); median {:.2f}, lowest {:.2f}",
+                             r.return_mean, r.return_sd, r.returns.size(), how, r.return_median, r.return_min)
               << "\n";
     std::cout << (task_weights["weights"] == "best"
                       ? fmt::format("  the task's best-evaluated weights (return {:.2f} at {} env steps; --last: "
@@ -232,11 +240,11 @@ Status RunEval(const EvalFlags& f) {
   if (f.play_task && f.skill.empty()) return Errorf("--play-task needs --skill");
   auto ckpt = FindCheckpoint(f.run_dir, f.epoch);
   if (!ckpt.ok()) return ckpt.status();
-  auto trained_env = RunEnv(f.run_dir);
-  if (!trained_env.ok()) return trained_env.status();
-  auto trained = envs::MakeEnv(*trained_env);
+  auto run_config = ReadRunConfig(f.run_dir);
+  if (!run_config.ok()) return run_config.status();
+  auto trained = envs::MakeEnv(run_config->env);
   if (!trained.ok()) return trained.status().WithContext(f.run_dir);
-  auto env = envs::MakeEnv(f.env.empty() ? *trained_env : f.env);
+  auto env = envs::MakeEnv(f.env.empty() ? run_config->env : f.env);
   if (!env.ok()) return env.status().WithContext("--env");
   LearnerCore core((*trained)->spec(), LearnerOptions{}, f.seed);
   COINS_RETURN_IF_ERROR(core.LoadCheckpoint(*ckpt));
@@ -255,14 +263,16 @@ Status RunEval(const EvalFlags& f) {
 
   EvalRecorder recorder(f, **env);
   COINS_RETURN_IF_ERROR(recorder.Open());
-  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(f.explore), float(f.goal_sample_ratio), f.play_task};
+  EvalFlags flags = f;
+  if (flags.explore < 0) flags.explore = run_config->eval_task_explore;
+  EvalOptions eo{f.episodes, f.max_steps, f.seed, float(flags.explore), float(f.goal_sample_ratio), f.play_task};
   auto r = Evaluate(**env, **models, level, eo, [&](const EvalStep& s) { recorder.OnStep(s); });
   if (!r.ok()) return r.status();
   COINS_RETURN_IF_ERROR(recorder.Finish());
 
   const policy::LevelSpec& spec = core.trainer(level)->spec();
   const policy::LevelSpec& skill = spec.is_task() && level > 1 ? core.trainer(level - 1)->spec() : spec;
-  PrintEval(f, *ckpt, (*env)->spec(), level, spec, skill, *r, TaskWeights(core, best));
+  PrintEval(flags, *ckpt, (*env)->spec(), level, spec, skill, *r, TaskWeights(core, best));
   return Status::Ok();
 }
 
@@ -277,7 +287,9 @@ void AddEvalCommand(CLI::App& app, int* exit_code) {
   cmd->add_option("--seed", f->seed, "first episode's seed");
   cmd->add_option("--max-steps", f->max_steps, "env steps per episode at most")
       ->check(CLI::Range(int64_t(1), int64_t(1) << 30));
-  cmd->add_option("--explore", f->explore, "the task level's epsilon (skills act greedily); 0: greedy")
+  cmd->add_option("--explore", f->explore,
+                  "the task level's epsilon (skills act greedily); 0: greedy (default: the run's "
+                  "learner.eval_task_explore)")
       ->check(cli::Finite(0.0, 1.0));
   cmd->add_option("--goal-sample-ratio", f->goal_sample_ratio,
                   "--skill with continuous goals: draw them within this fraction of the goal range around the target "

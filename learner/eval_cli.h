@@ -1,4 +1,5 @@
-// `coins eval RUN_DIR`: runs the task policy of a run (greedy but for its --explore epsilon;
+// `coins eval RUN_DIR`: runs the task policy of a run (greedy but for its --explore epsilon, by
+// default the one the run's own periodic evaluations used;
 // the weights its best periodic evaluation scored with, or with --last its newest) or one of
 // its skills with random goals (greedy) from its newest learner checkpoint, and
 // reports the return's mean and standard deviation, the top skill's success (ball-angle
@@ -22,9 +23,9 @@ struct EvalFlags {
   int episodes = 20;
   uint64_t seed = 1;
   int64_t max_steps = 20000;
-  double explore = LearnerOptions{}.eval_task_explore;  // the task level's epsilon
-  int64_t epoch = -1;                                   // -1: the newest checkpoint
-  std::string out;                                      // rollout JSON lines
+  double explore = -1;  // the task level's epsilon; negative: the run's learner.eval_task_explore
+  int64_t epoch = -1;   // -1: the newest checkpoint
+  std::string out;      // rollout JSON lines
   std::string gif;
   int gif_steps = 1500;  // frames (env steps) in the GIF
   bool json = false;

@@ -41,7 +41,6 @@ struct Suite {
   std::vector<std::string> variants;  // known variants, in the tables' order
   std::vector<std::string> methods;   // known methods, in the tables' order
   int64_t eval_episodes;              // the final evaluation's episodes by default
-  std::string eval_explore;           // `coins eval --explore` of the final evaluation ("": the run's)
   std::map<std::string, std::map<std::string, double>> paper;  // variant -> method -> final return
 };
 
@@ -55,7 +54,6 @@ const Suite& TransferSuite() {
                        {"single", "hard", "big", "neg", "center", "prox"},
                        {"coins", "vanilla", "finetune"},
                        20,
-                       "",
                        {{"single", {{"coins", -3.2}, {"vanilla", -5.8}}},
                         {"hard", {{"coins", -4.2}, {"vanilla", -7.1}}},
                         {"big", {{"coins", 0.85}, {"vanilla", 0.74}}},
@@ -67,7 +65,7 @@ const Suite& TransferSuite() {
 
 const Suite& PushingSuite() {
   // shared/reference/pushing.md: COInS -21.6 within 700k steps, vanilla SAC -30 (never touches
-  // the block). A sac task is evaluated by the tanh of its policy's mean (explore 0).
+  // the block). pushing.yaml evaluates a sac task by the tanh of its policy's mean (explore 0).
   static const Suite s{"pushing",
                        "Robot pushing with negative reward regions: COInS against vanilla SAC",
                        "",
@@ -76,7 +74,6 @@ const Suite& PushingSuite() {
                        {"pushing"},
                        {"coins", "vanilla"},
                        50,
-                       "0",
                        {{"pushing", {{"coins", -21.6}, {"vanilla", -30}}}}};
   return s;
 }
@@ -162,7 +159,7 @@ Status RunChild(const std::vector<std::string>& argv, const std::string& log, st
 }
 
 // the final return of a finished run: `coins eval` of its newest checkpoint (the task greedy but
-// for the suite's evaluation epsilon, eval_episodes episodes, a fixed seed), kept in
+// for the run's learner.eval_task_explore, eval_episodes episodes, a fixed seed), kept in
 // dir/final-eval.json
 Status FinalEval(const fs::path& dir, const ExperimentFlags& f, int64_t seed, RunResult* r) {
   const fs::path file = dir / "final-eval.json";
@@ -170,8 +167,6 @@ Status FinalEval(const fs::path& dir, const ExperimentFlags& f, int64_t seed, Ru
     std::vector<std::string> argv = {
         SelfDirectory() + "/coins",  "eval",  dir.string(), "--episodes", std::to_string(f.eval_episodes), "--seed",
         std::to_string(1000 + seed), "--json"};
-    if (const std::string& explore = SuiteNamed(f.suite).eval_explore; !explore.empty())
-      argv.insert(argv.end(), {"--explore", explore});
     auto ran = RunBounded(argv, file.string() + ".tmp", std::chrono::seconds(1800));
     if (!Succeeded(ran)) return Errorf("coins eval {} failed; see {}.tmp", dir.string(), file.string());
     fs::rename(file.string() + ".tmp", file);
@@ -335,10 +330,10 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
     for (const auto& [m, c] : row) fractions = fractions || !c.done.empty() || !c.penalty.empty();
   std::string md = fmt::format(
       "# {}\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: `coins eval` of each run's final "
-      "checkpoint ({} episodes, {}); mean +- sd over seeds. Random actions: uniform random primitive actions, the "
+      "checkpoint ({} episodes, the task's evaluation explore: learner.eval_task_explore); mean +- sd over seeds. "
+      "Random actions: uniform random primitive actions, the "
       "return a method must beat to have learned anything (mean +- sd over episodes).\n\n",
-      suite.title, f.chain, f.steps, f.seeds, f.eval_episodes,
-      suite.eval_explore.empty() ? "the task's evaluation epsilon" : "task explore " + suite.eval_explore);
+      suite.title, f.chain, f.steps, f.seeds, f.eval_episodes);
   md += TableHeader(f, fractions);
   for (const auto& v : f.variants) {
     const auto& row = cells.at(v);

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "actors/actor.h"
+#include "common/figures.h"
 
 namespace coins {
 
@@ -27,11 +28,8 @@ void Summarise(EvalResult* r) {
   r->return_mean = sum / double(r->returns.size());
   for (double x : r->returns) sq += (x - r->return_mean) * (x - r->return_mean);
   r->return_sd = std::sqrt(sq / double(r->returns.size()));
-  std::vector<double> sorted = r->returns;
-  std::sort(sorted.begin(), sorted.end());
-  const size_t n = sorted.size();
-  r->return_median = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
-  r->return_min = sorted.front();
+  r->return_median = Median(r->returns);
+  r->return_min = *std::min_element(r->returns.begin(), r->returns.end());
 }
 
 // one tally per discrete goal of the level's space; none for other goal spaces

@@ -331,8 +331,8 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
   std::string md = fmt::format(
       "# {}\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: `coins eval` of each run's final "
       "checkpoint ({} episodes, the task's evaluation explore: learner.eval_task_explore); mean +- sd over seeds. "
-      "Random actions: uniform random primitive actions, the "
-      "return a method must beat to have learned anything (mean +- sd over episodes).\n\n",
+      "Random actions: uniform random primitive actions, the return a method must beat to have learned anything "
+      "(mean +- sd over episodes).\n\n",
       suite.title, f.chain, f.steps, f.seeds, f.eval_episodes);
   md += TableHeader(f, fractions);
   for (const auto& v : f.variants) {

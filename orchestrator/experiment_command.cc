@@ -87,7 +87,8 @@ std::string Known(const std::vector<std::string>& names) {
 }
 
 struct Cell {
-  std::vector<double> finals, done, penalty;  // per run: final return, goal-reaching and penalty fractions
+  std::vector<double> finals, medians, done, penalty;  // per run: final return, its median episode, goal-reaching
+                                                       // and penalty fractions
   std::vector<RunResult> runs;
   double mean = 0, sd = 0;
   std::string not_run;  // why the method could not run on this variant
@@ -177,7 +178,9 @@ Status FinalEval(const fs::path& dir, const ExperimentFlags& f, int64_t seed, Ru
     return Errorf("{}: not a `coins eval --json` result", file.string());
   r->final_return = j["return_mean"].get<double>();
   r->final_sd = j.value("return_sd", 0.0);
-  for (auto [key, out] : {std::pair{"done_fraction", &r->done_fraction}, {"penalty_fraction", &r->penalty_fraction}})
+  for (auto [key, out] : {std::pair{"done_fraction", &r->done_fraction},
+                          {"penalty_fraction", &r->penalty_fraction},
+                          {"return_median", &r->final_median}})
     if (j.contains(key) && j[key].is_number()) *out = j[key].get<double>();
   return Status::Ok();
 }
@@ -209,6 +212,7 @@ std::pair<double, double> MeanSd(const std::vector<double>& xs) {
 
 void Add(Cell& c, const RunResult& r) {
   c.finals.push_back(r.final_return);
+  if (!std::isnan(r.final_median)) c.medians.push_back(r.final_median);
   if (!std::isnan(r.done_fraction)) c.done.push_back(r.done_fraction);
   if (!std::isnan(r.penalty_fraction)) c.penalty.push_back(r.penalty_fraction);
   c.runs.push_back(r);
@@ -220,6 +224,13 @@ std::string PercentCell(const std::vector<double>& fractions) {
   if (fractions.empty()) return " - |";
   const auto [mean, sd] = MeanSd(fractions);
   return fmt::format(" {:.1f} +- {:.1f}% |", 100 * mean, 100 * sd);
+}
+
+// " -12.30 +- 4.10 |" of values (mean +- sd over runs), " - |" without them
+std::string ValueCell(const std::vector<double>& values) {
+  if (values.empty()) return " - |";
+  const auto [mean, sd] = MeanSd(values);
+  return fmt::format(" {:.2f} +- {:.2f} |", mean, sd);
 }
 
 // mean over vanilla's runs of their last periodic evaluation (a run without one: its final)
@@ -296,15 +307,16 @@ Status WriteCurves(const ExperimentFlags& f, const std::string& variant) {
   return Status::Ok();
 }
 
-// the Markdown table's header: final returns, the paper's, steps to vanilla's final, and the goal
-// and penalty fractions when the runs' evaluations have them
+// the Markdown table's header: final returns, the paper's, the final evaluations' median episodes,
+// steps to vanilla's final, and the goal and penalty fractions when the runs' evaluations have them
 std::string TableHeader(const ExperimentFlags& f, bool fractions) {
   std::string md = "| variant |";
-  size_t columns = 3 * f.methods.size();
+  size_t columns = 4 * f.methods.size();
   for (const auto& m : f.methods) md += fmt::format(" {} |", m);
   md += " random actions |";
   ++columns;
   for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
+  for (const auto& m : f.methods) md += fmt::format(" {}: median episode |", m);
   for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final (periodic evals) |", m);
   if (fractions) {
     for (const auto& m : f.methods) md += fmt::format(" {}: episodes reaching the goal |", m);
@@ -331,6 +343,8 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
   std::string md = fmt::format(
       "# {}\n\nChain: `{}`. Budget: {} env steps per run, {} seeds. Final return: `coins eval` of each run's final "
       "checkpoint ({} episodes, the task's evaluation explore: learner.eval_task_explore); mean +- sd over seeds. "
+      "Median episode: the median episode return of each final evaluation, mean +- sd over seeds (a few lost "
+      "episodes move the mean, not the median). "
       "Random actions: uniform random primitive actions, the return a method must beat to have learned anything "
       "(mean +- sd over episodes).\n\n",
       suite.title, f.chain, f.steps, f.seeds, f.eval_episodes);
@@ -347,10 +361,11 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       const Cell& c = row.at(m);
       json& out = j["variants"][v][m];
       out = {{"mean", c.mean}, {"sd", c.sd}, {"runs", c.finals}};
+      if (!c.medians.empty()) out["median_episode"] = c.medians;
       if (!c.done.empty()) out["done_fraction"] = c.done;
       if (!c.penalty.empty()) out["penalty_fraction"] = c.penalty;
       if (!c.not_run.empty()) out["not_run"] = c.not_run;
-      md += c.finals.empty() ? " not run |" : fmt::format(" {:.2f} +- {:.2f} |", c.mean, c.sd);
+      md += c.finals.empty() ? " not run |" : ValueCell(c.finals);
       if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
     }
     const Reference& ref = random.at(v);
@@ -361,6 +376,7 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       j["variants"][v]["paper"][m] = std::isnan(p) ? json(nullptr) : json(p);
       md += std::isnan(p) ? " - |" : fmt::format(" {} |", p);
     }
+    for (const auto& m : f.methods) md += ValueCell(row.at(m).medians);
     for (const auto& m : f.methods)
       md += has_vanilla ? " " + Reach(j["variants"][v][m]["steps_to_vanilla_final"]) + " |" : " - |";
     if (fractions) {

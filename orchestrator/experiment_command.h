@@ -53,6 +53,7 @@ struct RunResult {
   bool done = false;
   double final_return = 0, final_sd = 0;               // the final evaluation (summary.json's until FinalEval)
   double done_fraction = NAN, penalty_fraction = NAN;  // episodes reaching the goal, steps penalised
+  double final_median = NAN;                           // the final evaluation's median episode return
   std::vector<std::pair<uint64_t, double>> curve;      // (env steps, eval return mean)
   double wall_s = 0;
 };

@@ -6,6 +6,7 @@
 // a chain.json whose links carry the values a real chain found. What the skills learned does not
 // matter to these tests (learning results are experiments); that the transfer carries them over
 // unchanged and trains only the task does.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -419,6 +420,8 @@ TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
   ASSERT_EQ(vanilla["runs"].size(), 1u);
   EXPECT_DOUBLE_EQ(vanilla["runs"][0].get<double>(), final_eval["return_mean"].get<double>());
   EXPECT_LE(vanilla["runs"][0].get<double>(), -30.0 + 1e-3) << "at best -0.1 per step for 300 steps";
+  ASSERT_EQ(vanilla["median_episode"].size(), 1u) << "the final evaluation's median episode, beside its mean";
+  EXPECT_DOUBLE_EQ(vanilla["median_episode"][0].get<double>(), final_eval["return_median"].get<double>());
   ASSERT_EQ(vanilla["done_fraction"].size(), 1u);
   EXPECT_DOUBLE_EQ(vanilla["done_fraction"][0].get<double>(), final_eval["done_fraction"].get<double>());
   ASSERT_EQ(vanilla["penalty_fraction"].size(), 1u);
@@ -437,6 +440,9 @@ TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
   EXPECT_LE(random["mean"].get<double>(), -30.0 + 1e-3) << random;
   EXPECT_NE(md.find("random actions"), std::string::npos) << md;
   EXPECT_NE(md.find("episodes reaching the goal"), std::string::npos) << md;
+  EXPECT_NE(md.find("vanilla: median episode"), std::string::npos) << md;
+  EXPECT_NE(md.find(fmt::format(" {:.2f} +- 0.00 |", final_eval["return_median"].get<double>())), std::string::npos)
+      << "vanilla's median episode in its column: " << md;
 }
 
 }  // namespace

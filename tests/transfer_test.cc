@@ -388,9 +388,10 @@ TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
   EXPECT_NE(bad.output.find("unknown variant 'tiny'"), std::string::npos) << bad.output;
 }
 
-// `coins experiment pushing`: vanilla SAC on robot pushing in the same harness, evaluated greedily
-// over the suite's episodes with the goal and penalty fractions in the table; a --chain without
-// a learned Block skill leaves the coins column not run, with the reason
+// `coins experiment pushing`: vanilla SAC on robot pushing in the same harness, evaluated as its
+// config's learner.eval_task_explore says over the suite's episodes, with the goal and penalty
+// fractions in the table; a --chain without a learned Block skill leaves the coins column not run,
+// with the reason
 TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
   const fs::path dir = TempDir("experiment-pushing");
   const fs::path chain = dir / "no-chain";
@@ -414,7 +415,7 @@ TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
   ASSERT_TRUE(final_eval.is_object());
   EXPECT_EQ(final_eval["env"], "pushing");
   EXPECT_EQ(final_eval["episodes"], 4);
-  EXPECT_EQ(final_eval["explore"], 0.0) << "a sac task is evaluated by its mean action";
+  EXPECT_EQ(final_eval["explore"], 1.0) << "the run's learner.eval_task_explore (pushing.yaml: sample the sac task)";
   EXPECT_EQ(final_eval["level"], 1) << "vanilla acts on primitive actions";
   const nlohmann::json& vanilla = t["variants"]["pushing"]["vanilla"];
   ASSERT_EQ(vanilla["runs"].size(), 1u);

@@ -65,7 +65,8 @@ const Suite& TransferSuite() {
 
 const Suite& PushingSuite() {
   // shared/reference/pushing.md: COInS -21.6 within 700k steps, vanilla SAC -30 (never touches
-  // the block). pushing.yaml evaluates a sac task by the tanh of its policy's mean (explore 0).
+  // the block). A run's task is evaluated as its learner.eval_task_explore says (pushing.yaml: 1,
+  // the sac policy sampled).
   static const Suite s{"pushing",
                        "Robot pushing with negative reward regions: COInS against vanilla SAC",
                        "",

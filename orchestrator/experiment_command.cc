@@ -220,18 +220,13 @@ void Add(Cell& c, const RunResult& r) {
   std::tie(c.mean, c.sd) = MeanSd(c.finals);
 }
 
-// " 41.3 +- 2.0% |" of fractions, " - |" without them
-std::string PercentCell(const std::vector<double>& fractions) {
-  if (fractions.empty()) return " - |";
-  const auto [mean, sd] = MeanSd(fractions);
-  return fmt::format(" {:.1f} +- {:.1f}% |", 100 * mean, 100 * sd);
-}
-
-// " -12.30 +- 4.10 |" of values (mean +- sd over runs), " - |" without them
-std::string ValueCell(const std::vector<double>& values) {
+// a table cell of values over runs: " -12.30 +- 4.10 |" (mean +- sd), or of fractions as
+// percentages, " 41.3 +- 2.0% |"; " - |" without values
+std::string MeanSdCell(const std::vector<double>& values, bool percent = false) {
   if (values.empty()) return " - |";
   const auto [mean, sd] = MeanSd(values);
-  return fmt::format(" {:.2f} +- {:.2f} |", mean, sd);
+  return percent ? fmt::format(" {:.1f} +- {:.1f}% |", 100 * mean, 100 * sd)
+                 : fmt::format(" {:.2f} +- {:.2f} |", mean, sd);
 }
 
 // mean over vanilla's runs of their last periodic evaluation (a run without one: its final)
@@ -366,7 +361,7 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       if (!c.done.empty()) out["done_fraction"] = c.done;
       if (!c.penalty.empty()) out["penalty_fraction"] = c.penalty;
       if (!c.not_run.empty()) out["not_run"] = c.not_run;
-      md += c.finals.empty() ? " not run |" : ValueCell(c.finals);
+      md += c.finals.empty() ? " not run |" : MeanSdCell(c.finals);
       if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
     }
     const Reference& ref = random.at(v);
@@ -377,12 +372,12 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       j["variants"][v]["paper"][m] = std::isnan(p) ? json(nullptr) : json(p);
       md += std::isnan(p) ? " - |" : fmt::format(" {} |", p);
     }
-    for (const auto& m : f.methods) md += ValueCell(row.at(m).medians);
+    for (const auto& m : f.methods) md += MeanSdCell(row.at(m).medians);
     for (const auto& m : f.methods)
       md += has_vanilla ? " " + Reach(j["variants"][v][m]["steps_to_vanilla_final"]) + " |" : " - |";
     if (fractions) {
-      for (const auto& m : f.methods) md += PercentCell(row.at(m).done);
-      for (const auto& m : f.methods) md += PercentCell(row.at(m).penalty);
+      for (const auto& m : f.methods) md += MeanSdCell(row.at(m).done, /*percent=*/true);
+      for (const auto& m : f.methods) md += MeanSdCell(row.at(m).penalty, /*percent=*/true);
     }
     md += "\n";
   }

@@ -106,7 +106,7 @@ class EvalRecorder {
 nlohmann::json TaskWeights(const LearnerCore& core, bool best) {
   const auto& b = core.best_task();
   if (!best || !b) return {{"weights", "newest"}};
-  return {{"weights", "best"}, {"env_steps", b->env_steps}, {"return_mean", b->return_mean}};
+  return {{"weights", "best"}, {"env_steps", b->env_steps}, {"return_mean", b->return_mean}, {"episodes", b->episodes}};
 }
 
 double Fraction(uint64_t part, uint64_t whole) { return whole ? double(part) / double(whole) : 0.0; }

@@ -77,6 +77,8 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
                       {"env_steps", best_task_->env_steps},
                       {"return_mean", best_task_->return_mean},
                       {"return_sd", best_task_->return_sd},
+                      {"episodes", best_task_->episodes},
+                      {"seed", best_task_->seed},
                       {"file", "task-best.bin"}};
   }
   COINS_RETURN_IF_ERROR(SaveSelection(tmp, &j));
@@ -166,11 +168,10 @@ Status LearnerCore::LoadBestTask(const std::string& dir, const nlohmann::json& s
   best_task_.reset();
   if (!state.contains("best_task")) return Status::Ok();
   const json& b = state.at("best_task");
-  BestTask best{b.at("level").get<int>(),
-                b.at("env_steps").get<uint64_t>(),
-                b.at("return_mean").get<double>(),
-                b.at("return_sd").get<double>(),
-                {}};
+  BestTask best{b.at("level").get<int>(),          b.at("env_steps").get<uint64_t>(),
+                b.at("return_mean").get<double>(), b.at("return_sd").get<double>(),
+                b.value("episodes", int64_t(0)),  // absent in checkpoints of older versions
+                b.value("seed", uint64_t(0)),      {}};
   const std::string file = dir + "/" + b.at("file").get<std::string>();
   PolicyTrainer* t = trainer(best.level);
   if (!t || !t->spec().is_task()) return Errorf("{}: the best task's level {} holds no task", file, best.level);

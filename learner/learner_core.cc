@@ -22,6 +22,9 @@ namespace {
 constexpr int64_t kPacingSlack = 1000;
 constexpr int kVersionShift = 40;
 constexpr size_t kLagWindow = 4096;
+// a confirming task evaluation's env seeds start this far above the periodic one's: no other
+// evaluation of the run draws them
+constexpr uint64_t kConfirmSeedOffset = uint64_t(1) << 32;
 
 // replay that cannot serve yet: shards without data or held by their rate limiter, and shards
 // away (stopped, restarting; the replay client fails the job once one stays away too long)
@@ -308,10 +311,33 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
       spec.name, env_steps, r->return_mean, r->return_sd, r->success, status_.eval_hit_rate(),
       status_.eval_angle_accuracy());
   COINS_RETURN_IF_ERROR(EvaluateSkillPlay(**env, **models, env_steps));
-  if (spec.is_task() && !r->returns.empty() && (!best_task_ || r->return_mean > best_task_->return_mean)) {
-    best_task_ = BestTask{train_level_, env_steps, r->return_mean, r->return_sd, trainer(train_level_)->ActingBlob()};
-    spdlog::info("the best task policy so far: return {:.2f} at {} env steps", r->return_mean, env_steps);
+  if (spec.is_task()) return ConsiderBestTask(**env, **models, o, *r, env_steps);
+  return Status::Ok();
+}
+
+Status LearnerCore::ConsiderBestTask(envs::Env& env, const HierarchyModels& models, const EvalOptions& periodic,
+                                     const EvalResult& r, uint64_t env_steps) {
+  if (r.returns.empty() || (best_task_ && r.return_mean <= best_task_->return_mean)) return Status::Ok();
+  EvalOptions o = periodic;
+  EvalResult confirming = r;
+  if (options_.eval_confirm_episodes > 0) {
+    o.episodes = int(options_.eval_confirm_episodes);
+    o.seed = periodic.seed + kConfirmSeedOffset;
+    auto c = coins::Evaluate(env, models, train_level_, o);
+    if (!c.ok()) return c.status().WithContext("confirming evaluation");
+    confirming = std::move(*c);
+    spdlog::info("confirming the task's evaluation of {:.2f} at {} env steps: {:.2f} +- {:.2f} over {} new episodes",
+                 r.return_mean, env_steps, confirming.return_mean, confirming.return_sd, confirming.returns.size());
+    if (best_task_ && confirming.return_mean <= best_task_->return_mean) return Status::Ok();
   }
+  best_task_ = BestTask{train_level_,
+                        env_steps,
+                        confirming.return_mean,
+                        confirming.return_sd,
+                        int64_t(o.episodes),
+                        o.seed,
+                        trainer(train_level_)->ActingBlob()};
+  spdlog::info("the best task policy so far: return {:.2f} at {} env steps", confirming.return_mean, env_steps);
   return Status::Ok();
 }
 

@@ -81,13 +81,17 @@ class LearnerCore {
   // the blocks fits any number of blocks; an Mlp over the whole state fits only the same layout)
   Status KeepTaskFor(const envs::EnvSpec& target);
 
-  // the task policy whose periodic evaluation scored the highest return so far (its acting
-  // weights, as they were then): the run's final policy, which `coins eval` takes unless told
-  // --last. Kept in checkpoints; forgotten when the task level is rebuilt or a transfer starts.
+  // the task policy whose evaluation scored the highest return so far (its acting weights, as
+  // they were then): the run's final policy, which `coins eval` takes unless told --last. With
+  // eval_confirm_episodes, a periodic evaluation above the best only nominates its weights: they
+  // are scored, and compared, by the confirming episodes alone. Kept in checkpoints; forgotten
+  // when the task level is rebuilt or a transfer starts.
   struct BestTask {
     int level = 0;
-    uint64_t env_steps = 0;  // of the evaluation
-    double return_mean = 0, return_sd = 0;
+    uint64_t env_steps = 0;                 // of the evaluation
+    double return_mean = 0, return_sd = 0;  // of the evaluation that scored it
+    int64_t episodes = 0;                   // that evaluation's episodes, from Reset(seed) on
+    uint64_t seed = 0;
     std::vector<uint8_t> acting;  // PolicyNet blob
   };
   const std::optional<BestTask>& best_task() const { return best_task_; }
@@ -120,6 +124,10 @@ class LearnerCore {
   Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Status Evaluate(uint64_t env_steps);
+  // a periodic task evaluation `r` at env_steps: keeps the weights when they score above the best
+  // (confirmed on eval_confirm_episodes new episodes when that is set)
+  Status ConsiderBestTask(envs::Env& env, const HierarchyModels& models, const EvalOptions& periodic,
+                          const EvalResult& r, uint64_t env_steps);
   // a skill's evaluation: the skill on random goals plays eval_skill_episodes whole task episodes
   Status EvaluateSkillPlay(envs::Env& env, const HierarchyModels& models, uint64_t env_steps);
   // a skill's training ended (the new command moves on): choose its weights

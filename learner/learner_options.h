@@ -105,6 +105,11 @@ struct LearnerOptions {
   // the task level's epsilon in evaluations (skills are evaluated greedily): breaks the cycles
   // a greedy task policy can fall into in a deterministic env (actors/evaluate.h)
   double eval_task_explore = 0.05;
+  // a task evaluation that beats the kept best is confirmed on this many new episodes (other env
+  // seeds) before its weights are kept, and the best is compared by the confirming mean: the
+  // highest of many short, noisy evaluations is mostly luck (pushing: a 20-episode mean of -10.8
+  // kept at 25k env steps played -25.4 over 100 more). 0: kept by the periodic evaluation alone
+  int64_t eval_confirm_episodes = 0;
   // the weights a skill keeps when its training ends (learner/skill_selection.h): the best of
   // its newest select_snapshots snapshots (one every select_snapshot_every_steps env steps of its
   // training) and its final weights, each evaluated on select_goals goals; select_snapshots 0

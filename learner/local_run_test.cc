@@ -4,10 +4,14 @@
 // its goals in a greedy evaluation.
 #include "learner/local_run.h"
 
+#include "actors/envs/env.h"
+#include "actors/evaluate.h"
+
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -129,29 +133,40 @@ TEST(LocalRun, FindsActionToPaddleAndTrainsThePaddleSkill) {
   EXPECT_GT(c.goals_ended[0], 100u);
 }
 
-// the task over primitive actions, evaluated every 1000 env steps: the learner keeps the weights
-// of its best evaluation, its checkpoint carries them (a damaged copy is refused, naming the
-// file), and the best-task models act with them
-TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
+// the options of a task over primitive actions evaluated every 1000 env steps on 3 episodes
+LocalRunOptions TaskEvalOptions() {
   LocalRunOptions o = Options();
   o.actors = o.shards = 1;
   o.learner.eval_every_steps = 1000;
   o.learner.eval_episodes = 3;
   o.learner.eval_max_steps = 400;
-  auto made = LocalRun::Create(o);
-  ASSERT_TRUE(made.ok()) << made.status().message();
-  LocalRun& r = **made;
+  return o;
+}
+
+// trains the task over primitive actions until `n` periodic evaluations: (env steps, mean return)
+void TrainTaskForEvaluations(LocalRun& r, size_t n, std::vector<std::pair<uint64_t, double>>* evals) {
   msg::ChainCommand task = Command(1, "train-task", 1, 1000);  // 1000 random steps, then paced
   task.steps_per_update(4.0);
   ASSERT_TRUE(r.Command(task).ok());
-  std::vector<std::pair<uint64_t, double>> evals;
-  while (evals.size() < 8) {
+  while (evals->size() < n) {
     ASSERT_TRUE(r.StepActors(250).ok());
     ASSERT_TRUE(r.LearnerWork(100).ok());
     const msg::LearnerStatus st = r.learner().status();
-    if (st.eval_env_steps() && (evals.empty() || st.eval_env_steps() != evals.back().first))
-      evals.emplace_back(st.eval_env_steps(), st.eval_return_mean());
+    if (st.eval_env_steps() && (evals->empty() || st.eval_env_steps() != evals->back().first))
+      evals->emplace_back(st.eval_env_steps(), st.eval_return_mean());
   }
+}
+
+// the task over primitive actions, evaluated every 1000 env steps: the learner keeps the weights
+// of its best evaluation, its checkpoint carries them (a damaged copy is refused, naming the
+// file), and the best-task models act with them
+TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
+  LocalRunOptions o = TaskEvalOptions();
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  std::vector<std::pair<uint64_t, double>> evals;
+  ASSERT_NO_FATAL_FAILURE(TrainTaskForEvaluations(r, 8, &evals));
   auto best = std::max_element(evals.begin(), evals.end(), [](auto& a, auto& b) { return a.second < b.second; });
   ASSERT_GT(best->second,
             std::min_element(evals.begin(), evals.end(), [](auto& a, auto& b) { return a.second < b.second; })->second)
@@ -183,6 +198,51 @@ TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
   const Status s = damaged.LoadCheckpoint(dir.string());
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.message().find("task-best.bin"), std::string::npos) << s.message();
+  fs::remove_all(dir);
+}
+
+// with eval_confirm_episodes, the kept task weights are scored by new episodes of their own: the
+// kept mean is what those weights return on exactly those episodes, not the periodic evaluation
+// that nominated them, and a checkpoint keeps which episodes they were
+TEST(LocalRun, AKeptTaskPolicyIsScoredByItsConfirmingEpisodes) {
+  LocalRunOptions o = TaskEvalOptions();
+  o.learner.eval_confirm_episodes = 5;
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  std::vector<std::pair<uint64_t, double>> evals;
+  ASSERT_NO_FATAL_FAILURE(TrainTaskForEvaluations(r, 8, &evals));
+  const auto& kept = r.learner().best_task();
+  ASSERT_TRUE(kept.has_value());
+  EXPECT_EQ(kept->episodes, 5);
+  auto nominated = std::find_if(evals.begin(), evals.end(), [&](auto& e) { return e.first == kept->env_steps; });
+  ASSERT_NE(nominated, evals.end()) << "kept weights of " << kept->env_steps << " env steps, not evaluated then";
+
+  auto models = r.learner().Models(1, /*best_task=*/true);
+  ASSERT_TRUE(models.ok()) << models.status().message();
+  auto env = envs::MakeEnv(r.spec().name);
+  ASSERT_TRUE(env.ok());
+  EvalOptions again;
+  again.episodes = int(kept->episodes);
+  again.max_steps = o.learner.eval_max_steps;
+  again.seed = kept->seed;
+  again.task_explore = float(o.learner.eval_task_explore);
+  auto replay = Evaluate(**env, **models, 1, again);
+  ASSERT_TRUE(replay.ok()) << replay.status().message();
+  ASSERT_EQ(replay->returns.size(), 5u);
+  EXPECT_DOUBLE_EQ(replay->return_mean, kept->return_mean);
+  for (const auto& [steps, mean] : evals)  // no periodic evaluation drew the confirming episodes
+    EXPECT_GE(kept->seed, o.seed + 7919 + steps + uint64_t(o.learner.eval_episodes)) << steps;
+
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("coins-confirmed-task-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  ASSERT_TRUE(r.learner().SaveCheckpoint(dir.string(), 1, 1).ok());
+  LearnerCore loaded(r.spec(), o.learner, 9);
+  ASSERT_TRUE(loaded.LoadCheckpoint(dir.string()).ok());
+  ASSERT_TRUE(loaded.best_task().has_value());
+  EXPECT_EQ(loaded.best_task()->episodes, 5);
+  EXPECT_EQ(loaded.best_task()->seed, kept->seed);
   fs::remove_all(dir);
 }
 

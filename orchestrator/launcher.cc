@@ -256,7 +256,7 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
     summary["evals"] = EvalMilestones(progress.metrics()->evals(), c.run.report_returns);
     summary["skill_evals"] = EvalMilestones(progress.metrics()->skill_evals(), c.run.report_returns);
   }
-  if (nlohmann::json choices = SkillChoicesOf(c.run.dir); !choices.is_null()) summary["skill_choices"] = choices;
+  summary.update(KeptWeightsOf(c.run.dir));
   std::cout << FormatSummary(summary);
   std::ofstream(fs::path(c.run.dir) / "summary.json") << summary.dump(1) << "\n";
   if (progress.metrics()) {

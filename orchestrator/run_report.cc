@@ -360,14 +360,17 @@ json EvalMilestones(const std::vector<EvalPoint>& evals, const std::vector<doubl
   return {{"count", evals.size()}, {"best", point(*best)}, {"reached", reached}};
 }
 
-json SkillChoicesOf(const std::string& run_dir) {
+json KeptWeightsOf(const std::string& run_dir) {
+  json kept = json::object();
   auto dir = FindCheckpoint(run_dir, -1);
-  if (!dir.ok()) return nullptr;
+  if (!dir.ok()) return kept;
   auto text = ReadFileText(*dir + "/state.json");
-  if (!text.ok()) return nullptr;
+  if (!text.ok()) return kept;
   json j = json::parse(*text, nullptr, false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("skill_choices")) return nullptr;
-  return j["skill_choices"];
+  if (j.is_discarded() || !j.is_object()) return kept;
+  if (j.contains("skill_choices")) kept["skill_choices"] = j["skill_choices"];
+  if (j.contains("best_task") && j["best_task"].is_object()) kept["kept_task"] = j["best_task"];
+  return kept;
 }
 
 namespace {
@@ -394,6 +397,15 @@ std::string ScoreLine(const json& sc) {
   if (!sc.value("eligible", true)) line += ", not eligible";
   const std::string note = sc.value("note", "");
   return line + (note.empty() ? "" : ": " + note) + "\n";
+}
+// the task's kept weights (the learner's best_task): what scored them, on how many episodes
+std::string KeptTaskLine(const json& k) {
+  const int64_t episodes = k.value("episodes", int64_t(0));  // 0: a checkpoint of an older version
+  return fmt::format(
+      "  task weights kept: of {} env steps, return {:.2f} +- {:.2f}{} (the final policy, `coins "
+      "eval` acts with them)\n",
+      Short(double(k.value("env_steps", uint64_t(0)))), k.value("return_mean", 0.0), k.value("return_sd", 0.0),
+      episodes > 0 ? fmt::format(" over {} episodes", episodes) : "");
 }
 // the best of a series of evaluations (EvalMilestones; `best_is`: what the best one is, or "") and
 // when each reported return was first reached
@@ -457,9 +469,11 @@ std::string FormatSummary(const json& s) {
   if (s.contains("skill_evals") && s["skill_evals"].is_object())
     out += MilestoneLines(s["skill_evals"], "evaluations of the skill in training on random goals playing the task", "",
                           "skill on random goals, return");
+  const bool kept = s.contains("kept_task") && s["kept_task"].is_object();
   if (s.contains("evals") && s["evals"].is_object())
-    out += MilestoneLines(s["evals"], "task evaluations", "the final policy, `coins eval` acts with its weights",
-                          "eval return");
+    out += MilestoneLines(s["evals"], "task evaluations",
+                          kept ? "" : "the final policy, `coins eval` acts with its weights", "eval return");
+  if (kept) out += KeptTaskLine(s["kept_task"]);
   return out;
 }
 

@@ -99,9 +99,10 @@ nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
 // first evaluation whose mean reached it ("reached": [{return, env_steps, mean, wall_s}], env_steps
 // null when none did); null without evaluations. Goes into the summary as "evals"
 nlohmann::json EvalMilestones(const std::vector<EvalPoint>& evals, const std::vector<double>& targets);
-// the choices of the skills' weights (learner/skill_selection.h) recorded in the newest learner
-// checkpoint of the run; null when there is none. Goes into the summary as "skill_choices"
-nlohmann::json SkillChoicesOf(const std::string& run_dir);
+// what the newest learner checkpoint of the run records about the weights it keeps, for the
+// summary: "skill_choices" (learner/skill_selection.h) and "kept_task" (the task's kept weights:
+// level, env_steps, return_mean, return_sd, episodes); each absent when the checkpoint has none
+nlohmann::json KeptWeightsOf(const std::string& run_dir);
 std::string FormatSummary(const nlohmann::json& summary);
 
 // the newest complete epoch cut after the chain was done (its chain-epoch-N.json holds phase

@@ -307,10 +307,11 @@ TEST(RunReport, TheFinalEpochIsTheOneCutAfterTheChainWasDone) {
   EXPECT_EQ(FinalEpoch(dir.string()).value_or(0), 5u);
 }
 
-// the newest learner checkpoint's record of the skills' kept weights goes under its link
-TEST(RunReport, TheSummarySaysWhichWeightsEachSkillKept) {
+// the newest learner checkpoint's record of the skills' kept weights goes under its link, and
+// that of the task's kept weights after the task's evaluations
+TEST(RunReport, TheSummarySaysWhichWeightsEachSkillAndTheTaskKept) {
   fs::path dir = Dir("choices");
-  EXPECT_TRUE(SkillChoicesOf(dir.string()).is_null());
+  EXPECT_TRUE(KeptWeightsOf(dir.string()).empty());
   auto checkpoint = [&](uint64_t epoch, uint64_t kept_at) {
     fs::create_directories(dir / "checkpoints" / ("learner-epoch-" + std::to_string(epoch)));
     nlohmann::json state = {{"format", 1},
@@ -324,7 +325,15 @@ TEST(RunReport, TheSummarySaysWhichWeightsEachSkillKept) {
                                {"success", 0.9311},
                                {"final_env_steps", 866'200},
                                {"final_hit_rate", 0.9802},
-                               {"final_success", 0.9105}}}}};
+                               {"final_success", 0.9105}}}},
+                            {"best_task",
+                             {{"level", 3},
+                              {"env_steps", kept_at + 1000},
+                              {"return_mean", 91.25},
+                              {"return_sd", 8.5},
+                              {"episodes", 50},
+                              {"seed", 42},
+                              {"file", "task-best.bin"}}}};
     std::ofstream(dir / "checkpoints" / ("learner-epoch-" + std::to_string(epoch)) / "state.json") << state.dump();
   };
   checkpoint(4, 500'000);
@@ -333,8 +342,15 @@ TEST(RunReport, TheSummarySaysWhichWeightsEachSkillKept) {
       View(1'000'000, {Link("Action", "Paddle", 4.3, 1, "learned"), Link("Paddle", "Ball", 9000, 0.9, "learned")},
            1'000'000, 90),
       3000, 0);
-  summary["skill_choices"] = SkillChoicesOf(dir.string());
+  summary["evals"] = EvalMilestones({{600'000, 93.0, 5.0, 2000}, {713'345, 92.0, 4.0, 2100}}, {});
+  summary.update(KeptWeightsOf(dir.string()));
   const std::string text = FormatSummary(summary);
+  const std::string task_line =
+      "  task weights kept: of 713.3k env steps, return 91.25 +- 8.50 over 50 episodes (the final policy, `coins eval` "
+      "acts with them)\n";
+  EXPECT_NE(text.find(task_line), std::string::npos) << text;
+  EXPECT_NE(text.find("best of 2 task evaluations: 93.00 +- 5.00 at 600.0k env steps (2000 s)\n"), std::string::npos)
+      << "the best evaluation is not called the final policy when the kept weights are another's: " << text;
   const std::string line =
       "    weights of 712.3k env steps kept, the best of 9 candidates on 20000 goals each: hit rate 0.9921, success "
       "0.9311 (the final weights': 0.9802, 0.9105)\n";

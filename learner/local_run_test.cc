@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 
 namespace coins {
 namespace {
@@ -157,6 +158,18 @@ void TrainTaskForEvaluations(LocalRun& r, size_t n, std::vector<std::pair<uint64
   }
 }
 
+// saves the run's learner into a new checkpoint directory named after `tag` and loads it into a
+// new learner that holds a kept task
+void CheckpointAndReload(LocalRun& r, const LocalRunOptions& o, const std::string& tag, std::filesystem::path* dir,
+                         std::unique_ptr<LearnerCore>* loaded) {
+  *dir = std::filesystem::temp_directory_path() / (tag + "-" + std::to_string(getpid()));
+  std::filesystem::remove_all(*dir);
+  ASSERT_TRUE(r.learner().SaveCheckpoint(dir->string(), 1, 1).ok());
+  *loaded = std::make_unique<LearnerCore>(r.spec(), o.learner, 9);
+  ASSERT_TRUE((*loaded)->LoadCheckpoint(dir->string()).ok());
+  ASSERT_TRUE((*loaded)->best_task().has_value());
+}
+
 // the task over primitive actions, evaluated every 1000 env steps: the learner keeps the weights
 // of its best evaluation, its checkpoint carries them (a damaged copy is refused, naming the
 // file), and the best-task models act with them
@@ -180,16 +193,13 @@ TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
   EXPECT_EQ(kept->acting == r.learner().trainer(1)->ActingBlob(), best_is_newest);
 
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("coins-best-task-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  ASSERT_TRUE(r.learner().SaveCheckpoint(dir.string(), 1, 1).ok());
-  LearnerCore loaded(r.spec(), o.learner, 9);
-  ASSERT_TRUE(loaded.LoadCheckpoint(dir.string()).ok());
-  ASSERT_TRUE(loaded.best_task().has_value());
-  EXPECT_EQ(loaded.best_task()->env_steps, kept->env_steps);
-  EXPECT_DOUBLE_EQ(loaded.best_task()->return_mean, kept->return_mean);
-  EXPECT_TRUE(loaded.best_task()->acting == kept->acting);
-  auto models = loaded.Models(1, /*best_task=*/true);
+  fs::path dir;
+  std::unique_ptr<LearnerCore> loaded;
+  ASSERT_NO_FATAL_FAILURE(CheckpointAndReload(r, o, "coins-best-task", &dir, &loaded));
+  EXPECT_EQ(loaded->best_task()->env_steps, kept->env_steps);
+  EXPECT_DOUBLE_EQ(loaded->best_task()->return_mean, kept->return_mean);
+  EXPECT_TRUE(loaded->best_task()->acting == kept->acting);
+  auto models = loaded->Models(1, /*best_task=*/true);
   ASSERT_TRUE(models.ok()) << models.status().message();
 
   // a damaged best-task file fails the load, named
@@ -234,16 +244,12 @@ TEST(LocalRun, AKeptTaskPolicyIsScoredByItsConfirmingEpisodes) {
   for (const auto& [steps, mean] : evals)  // no periodic evaluation drew the confirming episodes
     EXPECT_GE(kept->seed, o.seed + 7919 + steps + uint64_t(o.learner.eval_episodes)) << steps;
 
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("coins-confirmed-task-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  ASSERT_TRUE(r.learner().SaveCheckpoint(dir.string(), 1, 1).ok());
-  LearnerCore loaded(r.spec(), o.learner, 9);
-  ASSERT_TRUE(loaded.LoadCheckpoint(dir.string()).ok());
-  ASSERT_TRUE(loaded.best_task().has_value());
-  EXPECT_EQ(loaded.best_task()->episodes, 5);
-  EXPECT_EQ(loaded.best_task()->seed, kept->seed);
-  fs::remove_all(dir);
+  std::filesystem::path dir;
+  std::unique_ptr<LearnerCore> loaded;
+  ASSERT_NO_FATAL_FAILURE(CheckpointAndReload(r, o, "coins-confirmed-task", &dir, &loaded));
+  EXPECT_EQ(loaded->best_task()->episodes, 5);
+  EXPECT_EQ(loaded->best_task()->seed, kept->seed);
+  std::filesystem::remove_all(dir);
 }
 
 // the paddle skill's training ends: its snapshots and its final weights are evaluated on the same

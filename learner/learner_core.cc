@@ -317,7 +317,8 @@ Status LearnerCore::Evaluate(uint64_t env_steps) {
 
 Status LearnerCore::ConsiderBestTask(envs::Env& env, const HierarchyModels& models, const EvalOptions& periodic,
                                      const EvalResult& r, uint64_t env_steps) {
-  if (r.returns.empty() || (best_task_ && r.return_mean <= best_task_->return_mean)) return Status::Ok();
+  if (!options_.keep_best_task || r.returns.empty() || (best_task_ && r.return_mean <= best_task_->return_mean))
+    return Status::Ok();
   EvalOptions o = periodic;
   EvalResult confirming = r;
   if (options_.eval_confirm_episodes > 0) {

@@ -84,8 +84,8 @@ class LearnerCore {
   // the task policy whose evaluation scored the highest return so far (its acting weights, as
   // they were then): the run's final policy, which `coins eval` takes unless told --last. With
   // eval_confirm_episodes, a periodic evaluation above the best only nominates its weights: they
-  // are scored, and compared, by the confirming episodes alone. Kept in checkpoints; forgotten
-  // when the task level is rebuilt or a transfer starts.
+  // are scored, and compared, by the confirming episodes alone. None with keep_best_task false.
+  // Kept in checkpoints; forgotten when the task level is rebuilt or a transfer starts.
   struct BestTask {
     int level = 0;
     uint64_t env_steps = 0;                 // of the evaluation

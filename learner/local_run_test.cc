@@ -211,6 +211,22 @@ TEST(LocalRun, TheBestEvaluatedTaskPolicyIsKeptAndCheckpointed) {
   fs::remove_all(dir);
 }
 
+// with keep_best_task false no weights are kept beside the newest: the task's final policy (the
+// best-task models) acts with the newest weights
+TEST(LocalRun, WithoutKeepingTheBestTheTaskActsWithItsNewestWeights) {
+  LocalRunOptions o = TaskEvalOptions();
+  o.learner.keep_best_task = false;
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  std::vector<std::pair<uint64_t, double>> evals;
+  ASSERT_NO_FATAL_FAILURE(TrainTaskForEvaluations(r, 3, &evals));
+  EXPECT_FALSE(r.learner().best_task().has_value());
+  EXPECT_GT(r.learner().trainer(1)->updates(), 0);  // newest weights that differ from the first
+  auto models = r.learner().Models(1, /*best_task=*/true);
+  ASSERT_TRUE(models.ok()) << models.status().message();
+}
+
 // with eval_confirm_episodes, the kept task weights are scored by new episodes of their own: the
 // kept mean is what those weights return on exactly those episodes, not the periodic evaluation
 // that nominated them, and a checkpoint keeps which episodes they were

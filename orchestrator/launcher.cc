@@ -257,6 +257,7 @@ void ReportRun(const StatusView& view, Progress& progress, const Supervisor& sup
     summary["skill_evals"] = EvalMilestones(progress.metrics()->skill_evals(), c.run.report_returns);
   }
   summary.update(KeptWeightsOf(c.run.dir));
+  if (!c.learner.keep_best_task) summary["kept_task"] = {{"newest", true}};
   std::cout << FormatSummary(summary);
   std::ofstream(fs::path(c.run.dir) / "summary.json") << summary.dump(1) << "\n";
   if (progress.metrics()) {

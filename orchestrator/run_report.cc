@@ -400,6 +400,8 @@ std::string ScoreLine(const json& sc) {
 }
 // the task's kept weights (the learner's best_task): what scored them, on how many episodes
 std::string KeptTaskLine(const json& k) {
+  if (k.value("newest", false))
+    return "  task weights kept: the newest (the final policy; learner.keep_best_task false)\n";
   const int64_t episodes = k.value("episodes", int64_t(0));  // 0: a checkpoint of an older version
   return fmt::format(
       "  task weights kept: of {} env steps, return {:.2f} +- {:.2f}{} (the final policy, `coins "

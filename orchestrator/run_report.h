@@ -101,7 +101,9 @@ nlohmann::json RunSummary(const StatusView& v, double wall_s, int64_t restarts);
 nlohmann::json EvalMilestones(const std::vector<EvalPoint>& evals, const std::vector<double>& targets);
 // what the newest learner checkpoint of the run records about the weights it keeps, for the
 // summary: "skill_choices" (learner/skill_selection.h) and "kept_task" (the task's kept weights:
-// level, env_steps, return_mean, return_sd, episodes); each absent when the checkpoint has none
+// level, env_steps, return_mean, return_sd, episodes); each absent when the checkpoint has none.
+// The launcher sets "kept_task" to {"newest": true} when the task keeps no best (its newest
+// weights are the final policy)
 nlohmann::json KeptWeightsOf(const std::string& run_dir);
 std::string FormatSummary(const nlohmann::json& summary);
 

@@ -351,6 +351,12 @@ TEST(RunReport, TheSummarySaysWhichWeightsEachSkillAndTheTaskKept) {
   EXPECT_NE(text.find(task_line), std::string::npos) << text;
   EXPECT_NE(text.find("best of 2 task evaluations: 93.00 +- 5.00 at 600.0k env steps (2000 s)\n"), std::string::npos)
       << "the best evaluation is not called the final policy when the kept weights are another's: " << text;
+  summary["kept_task"] = {{"newest", true}};
+  const std::string newest = FormatSummary(summary);
+  EXPECT_NE(newest.find("  task weights kept: the newest (the final policy; learner.keep_best_task false)\n"),
+            std::string::npos)
+      << newest;
+  EXPECT_EQ(newest.find("acts with its weights"), std::string::npos) << newest;
   const std::string line =
       "    weights of 712.3k env steps kept, the best of 9 candidates on 20000 goals each: hit rate 0.9921, success "
       "0.9311 (the final weights': 0.9802, 0.9105)\n";

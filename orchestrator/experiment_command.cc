@@ -291,8 +291,9 @@ Status WriteCurves(const ExperimentFlags& f, const std::string& variant) {
     for (int64_t s = 1; s <= f.seeds; ++s) {
       const fs::path csv = RunDir(f, variant, f.methods[m], s) / "eval.csv";
       if (!fs::exists(csv)) continue;
-      script += fmt::format("{}'{}' every ::1 using 1:2 with lines lw 2 lc {} title '{} seed {}'", first ? "" : ", ",
-                            csv.string(), m + 1, f.methods[m], s);
+      // a colour per method, a dash pattern per seed: two seeds of one method stay apart
+      script += fmt::format("{}'{}' every ::1 using 1:2 with lines lw 2 lc {} dt {} title '{} seed {}'",
+                            first ? "" : ", ", csv.string(), m + 1, s, f.methods[m], s);
       first = false;
     }
   if (first) return Status::Ok();

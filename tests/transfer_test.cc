@@ -12,6 +12,8 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <set>
 
 #include "common/checkpoint.h"
 #include "common/files.h"
@@ -444,6 +446,23 @@ TEST(Experiment, PushingTableFromAVanillaSacRunAndACoinsRunThatCannotStart) {
   EXPECT_NE(md.find("vanilla: median episode"), std::string::npos) << md;
   EXPECT_NE(md.find(fmt::format(" {:.2f} +- 0.00 |", final_eval["return_median"].get<double>())), std::string::npos)
       << "vanilla's median episode in its column: " << md;
+
+  // a second finished seed (a copy of the first) joins the table and the curves, drawn apart
+  fs::copy(run, out / "pushing" / "vanilla-seed2", fs::copy_options::recursive);
+  auto two = RunCommand(Bin("coins") + " experiment pushing --chain " + chain.string() +
+                            " --seeds 2 --steps 3000 --eval-episodes 4 --out " + out.string() +
+                            " --set dds.domain=" + std::to_string(TestDomain()),
+                        std::chrono::seconds(300));
+  ASSERT_EQ(two.code, 0) << two.output;
+  EXPECT_EQ(ReadJson(out / "pushing.json")["variants"]["pushing"]["vanilla"]["runs"].size(), 2u);
+  auto gp = ReadFileText((out / "curves-pushing.gp").string());
+  ASSERT_TRUE(gp.ok()) << gp.status().message();
+  const std::regex style(R"(with lines lw 2 (lc \d+ dt \d+) title 'vanilla seed \d')");
+  std::set<std::string> styles;
+  const std::string& script = gp.value();
+  for (auto it = std::sregex_iterator(script.begin(), script.end(), style); it != std::sregex_iterator(); ++it)
+    styles.insert((*it)[1]);
+  EXPECT_EQ(styles.size(), 2u) << "one line style per seed: " << script;
 }
 
 }  // namespace

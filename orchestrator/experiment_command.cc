@@ -10,6 +10,8 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <mutex>
+#include <optional>
 #include <thread>
 #include <tuple>
 
@@ -22,6 +24,7 @@
 #include "common/files.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
+#include "orchestrator/run_queue.h"
 #include "orchestrator/run_report.h"
 
 namespace coins {
@@ -186,14 +189,31 @@ Status FinalEval(const fs::path& dir, const ExperimentFlags& f, int64_t seed, Ru
   return Status::Ok();
 }
 
+// one line of the experiment's progress (runs may end on several threads at once)
+void Say(const std::string& line) {
+  static std::mutex mu;
+  std::lock_guard<std::mutex> lock(mu);
+  std::cout << line << std::endl;
+}
+
+// argv with the run on `domain` (nullopt: as its config and --set say); the last --set wins
+std::vector<std::string> OnDomain(std::vector<std::string> argv, std::optional<int> domain) {
+  if (domain) {
+    argv.push_back("--set");
+    argv.push_back(fmt::format("dds.domain={}", *domain));
+  }
+  return argv;
+}
+
 // a finished run in dir, run now when it is not there yet; refused: see RunChild
 Result<RunResult> EnsureRun(const fs::path& dir, const std::vector<std::string>& argv, const std::string& what,
-                            std::string* refused) {
+                            std::optional<int> domain, std::string* refused) {
   auto result = ReadRunResult(dir.string());
   if (!result.ok() || result->done) return result;
-  std::cout << fmt::format("{}: running in {}", what, dir.string()) << std::endl;
+  Say(fmt::format("{}: running in {}{}", what, dir.string(),
+                  domain ? fmt::format(" (DDS domain {})", *domain) : std::string()));
   fs::create_directories(dir.parent_path());
-  COINS_RETURN_IF_ERROR(RunChild(argv, dir.string() + ".log", refused));
+  COINS_RETURN_IF_ERROR(RunChild(OnDomain(argv, domain), dir.string() + ".log", refused));
   if (refused && !refused->empty()) return RunResult{};
   result = ReadRunResult(dir.string());
   if (result.ok() && !result->done)
@@ -401,12 +421,72 @@ Status Check(ExperimentFlags& f) {
   for (const auto& m : f.methods)
     if (std::find(suite.methods.begin(), suite.methods.end(), m) == suite.methods.end())
       return Errorf("--methods: unknown method '{}' (known: {})", m, Known(suite.methods));
+  COINS_RETURN_IF_ERROR(CheckDomains(f.domains));
   if (f.eval_episodes == 0) f.eval_episodes = suite.eval_episodes;
   if (f.out.empty()) f.out = (fs::path(f.chain) / ("experiment-" + f.suite)).string();
   std::error_code ec;
   fs::create_directories(f.out, ec);
   if (ec) return Errorf("--out {}: {}", f.out, ec.message());
   return Status::Ok();
+}
+
+// one run of an experiment; variant "" is finetune's pre-training for `seed`
+struct PlannedRun {
+  std::string variant, method;
+  int64_t seed = 1;
+  std::string what;                 // its progress label
+  std::optional<RunResult> result;  // once finished and evaluated
+  std::string refused;              // why it could not start
+};
+
+// the runs, in the order the table lists them: every variant, method and seed
+std::vector<PlannedRun> PlanRuns(const ExperimentFlags& f) {
+  std::vector<PlannedRun> runs;
+  const int64_t total = int64_t(f.variants.size() * f.methods.size()) * f.seeds;
+  for (const auto& v : f.variants)
+    for (const auto& m : f.methods)
+      for (int64_t s = 1; s <= f.seeds; ++s)
+        runs.push_back(
+            {v, m, s,
+             fmt::format("[{}/{}] {} {} seed {}", runs.size() + 1, total, SuiteNamed(f.suite).env_prefix + v, m, s),
+             std::nullopt, ""});
+  return runs;
+}
+
+// finetune's pre-training runs (one per seed), which every finetune run of that seed starts from
+std::vector<PlannedRun> PlanPretraining(const ExperimentFlags& f) {
+  std::vector<PlannedRun> runs;
+  if (std::find(f.methods.begin(), f.methods.end(), "finetune") == f.methods.end()) return runs;
+  for (int64_t s = 1; s <= f.seeds; ++s)
+    runs.push_back({"", "vanilla", s,
+                    fmt::format("pre-training vanilla on {}, seed {} ({} env steps)", SuiteNamed(f.suite).pretrain_env,
+                                s, f.pretrain_steps),
+                    std::nullopt, ""});
+  return runs;
+}
+
+Status RunPretraining(const ExperimentFlags& f, std::vector<PlannedRun>& runs) {
+  return RunQueue(runs.size(), f.domains, [&](size_t j, std::optional<int> domain) -> Status {
+    const PlannedRun& r = runs[j];
+    return EnsureRun(PretrainDir(f, r.seed), RunArgv(f, "", "vanilla", r.seed), r.what, domain, nullptr).status();
+  });
+}
+
+Status RunAndEvaluate(const ExperimentFlags& f, std::vector<PlannedRun>& runs) {
+  return RunQueue(runs.size(), f.domains, [&](size_t j, std::optional<int> domain) -> Status {
+    PlannedRun& r = runs[j];
+    const fs::path dir = RunDir(f, r.variant, r.method, r.seed);
+    auto result = EnsureRun(dir, RunArgv(f, r.variant, r.method, r.seed), r.what, domain, &r.refused);
+    if (!result.ok()) return result.status();
+    if (!r.refused.empty()) {
+      Say(r.what + ": not run: " + r.refused);
+      return Status::Ok();
+    }
+    COINS_RETURN_IF_ERROR(FinalEval(dir, f, r.seed, &*result));
+    Say(fmt::format("{}: final eval return {:.2f} ({:.0f} s)", r.what, result->final_return, result->wall_s));
+    r.result = std::move(*result);
+    return Status::Ok();
+  });
 }
 
 }  // namespace
@@ -431,34 +511,16 @@ Status RunExperiment(const ExperimentFlags& flags) {
   ExperimentFlags f = flags;
   COINS_RETURN_IF_ERROR(Check(f));
   InstallStopSignals();
+  std::vector<PlannedRun> pretraining = PlanPretraining(f);
+  COINS_RETURN_IF_ERROR(RunPretraining(f, pretraining));
+  std::vector<PlannedRun> runs = PlanRuns(f);
+  COINS_RETURN_IF_ERROR(RunAndEvaluate(f, runs));
   std::map<std::string, std::map<std::string, Cell>> cells;
-  const int64_t total = int64_t(f.variants.size() * f.methods.size()) * f.seeds;
-  int64_t n = 0;
-  for (const auto& v : f.variants)
-    for (const auto& m : f.methods)
-      for (int64_t s = 1; s <= f.seeds; ++s) {
-        const std::string what =
-            fmt::format("[{}/{}] {} {} seed {}", ++n, total, SuiteNamed(f.suite).env_prefix + v, m, s);
-        Cell& c = cells[v][m];
-        if (m == "finetune") {
-          auto pre = EnsureRun(
-              PretrainDir(f, s), RunArgv(f, "", "vanilla", s),
-              fmt::format("pre-training vanilla on breakout, seed {} ({} env steps)", s, f.pretrain_steps), nullptr);
-          if (!pre.ok()) return pre.status();
-        }
-        std::string refused;
-        auto result = EnsureRun(RunDir(f, v, m, s), RunArgv(f, v, m, s), what, &refused);
-        if (!result.ok()) return result.status();
-        if (!refused.empty()) {
-          std::cout << what << ": not run: " << refused << std::endl;
-          c.not_run = refused;
-          continue;
-        }
-        COINS_RETURN_IF_ERROR(FinalEval(RunDir(f, v, m, s), f, s, &*result));
-        std::cout << fmt::format("{}: final eval return {:.2f} ({:.0f} s)", what, result->final_return, result->wall_s)
-                  << std::endl;
-        Add(c, *result);
-      }
+  for (const PlannedRun& r : runs) {
+    Cell& c = cells[r.variant][r.method];
+    if (!r.refused.empty()) c.not_run = r.refused;
+    if (r.result) Add(c, *r.result);
+  }
   std::map<std::string, Reference> random;
   for (const auto& v : f.variants) {
     auto ref = RandomPolicyReturn(f, SuiteNamed(f.suite).env_prefix + v);
@@ -496,6 +558,10 @@ void AddSuiteCommand(CLI::App* exp, const Suite& suite, const std::string& help,
         ->check(cli::Integer(1000, int64_t(1) << 40));
   t->add_option("--out", f->out, fmt::format("output directory (default: CHAIN/experiment-{})", suite.name));
   t->add_option("--set", f->overrides, "a config override for every run (repeatable)");
+  t->add_option("--domains", f->domains,
+                "run several runs at once, one per DDS domain listed (e.g. 81,82; default: one run at a time "
+                "on the domain of the chain's config and --set)")
+      ->delimiter(',');
   t->callback([f, exit_code] {
     if (Status s = RunExperiment(*f); !s.ok()) {
       std::cerr << "coins experiment " << f->suite << ": " << s.message() << "\n";

@@ -1,6 +1,7 @@
 // `coins experiment transfer|pushing --chain RUN_DIR`: a comparison of methods, many runs, one
 // table, by one command. For every variant, method and seed it runs one whole run, one after
-// another (each run uses the machine's cores), in OUT/VARIANT/METHOD-seedS:
+// another, or with --domains D1,D2,.. as many at once as domains are listed, each live run on a
+// domain of its own (orchestrator/run_queue.h), in OUT/VARIANT/METHOD-seedS:
 //   coins    `coins transfer RUN_DIR --env ENV --skill SKILL --steps S`: a new task policy over
 //            the chain's frozen top skill (Ball on Breakout, Block on pushing);
 //   vanilla  `coins run` with RUN_DIR's config, orchestrator.chain none: the task alone over
@@ -43,6 +44,7 @@ struct ExperimentFlags {
   int64_t eval_episodes = 0;           // the final evaluation of each run (0: the suite's, 20 or 50)
   std::string out;                     // default RUN_DIR/experiment-transfer
   std::vector<std::string> overrides;  // --set for every run
+  std::vector<int> domains;            // runs at once, one per DDS domain (empty: one at a time, as configured)
 };
 
 void AddExperimentCommand(CLI::App& app, int* exit_code);

@@ -15,6 +15,8 @@
 #include <regex>
 #include <set>
 
+#include <yaml-cpp/yaml.h>
+
 #include "common/checkpoint.h"
 #include "common/files.h"
 #include "learner/checkpoint_dirs.h"
@@ -328,17 +330,37 @@ TEST(Baseline, FineTuningStartsFromTheVanillaRunsTaskPolicyAndTrainsIt) {
   EXPECT_GT(prox_state["total_updates"].get<uint64_t>(), 100u);
 }
 
-// `coins experiment transfer`: one run per method on one variant, the table from their final
-// evaluations; a second call keeps the finished runs (an interrupted experiment continues)
+// `coins experiment transfer`: one run per method on one variant, two at a time on two domains,
+// the table from their final evaluations; a second call keeps the finished runs (an interrupted
+// experiment continues)
 TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
   const fs::path src = SourceRun();
   ASSERT_FALSE(HasFatalFailure());
   const fs::path out = TempDir("experiment-transfer") / "out";
+  const int domains[2] = {TestDomain(), TestDomain()};
   const std::string cmd = Bin("coins") + " experiment transfer --chain " + src.string() +
                           " --variants single,prox --seeds 1 --steps 3000 --pretrain-steps 3000 --out " + out.string() +
-                          " --set learner.task_pair_hidden=[16,16] --set dds.domain=" + std::to_string(TestDomain());
+                          " --set learner.task_pair_hidden=[16,16] --domains " + std::to_string(domains[0]) + "," +
+                          std::to_string(domains[1]);
   auto r = RunCommand(cmd, std::chrono::seconds(300));
   ASSERT_EQ(r.code, 0) << r.output;
+  // every run on one of the two domains, both used, and runs that overlapped in time (a run's
+  // effective config is written as it starts, its summary as it ends)
+  std::set<int> used;
+  std::vector<std::pair<fs::file_time_type, fs::file_time_type>> spans;
+  for (const char* v : {"single", "prox"})
+    for (const char* m : {"coins", "vanilla", "finetune"}) {
+      const fs::path run = out / v / (std::string(m) + "-seed1");
+      const YAML::Node config = YAML::LoadFile((run / "config.yaml").string());
+      used.insert(config["dds"]["domain"].as<int>());
+      spans.emplace_back(fs::last_write_time(run / "config.yaml"), fs::last_write_time(run / "summary.json"));
+    }
+  EXPECT_EQ(used, (std::set<int>{domains[0], domains[1]})) << r.output;
+  bool overlapped = false;
+  for (size_t i = 0; i < spans.size(); ++i)
+    for (size_t j = i + 1; j < spans.size(); ++j)
+      overlapped |= spans[i].first < spans[j].second && spans[j].first < spans[i].second;
+  EXPECT_TRUE(overlapped) << "two runs at once: " << r.output;
   const nlohmann::json t = ReadJson(out / "transfer.json");
   ASSERT_TRUE(t.is_object()) << r.output;
   for (const char* m : {"coins", "vanilla", "finetune"}) {

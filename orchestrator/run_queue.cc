@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "common/dds/dds_options.h"
+
 namespace coins {
 
 Status RunQueue(size_t jobs, const std::vector<int>& domains, const RunJob& run) {
@@ -41,7 +43,7 @@ Status RunQueue(size_t jobs, const std::vector<int>& domains, const RunJob& run)
 Status CheckDomains(const std::vector<int>& domains) {
   std::set<int> seen;
   for (int d : domains) {
-    if (d < 0 || d > 232) return Errorf("--domains: {} is not a DDS domain id (0-232)", d);
+    if (d < 0 || d > kMaxDdsDomain) return Errorf("--domains: {} is not a DDS domain id (0-{})", d, kMaxDdsDomain);
     if (!seen.insert(d).second) return Errorf("--domains: {} is listed twice (one domain per concurrent run)", d);
   }
   return Status::Ok();

@@ -23,7 +23,7 @@ using RunJob = std::function<Status(size_t job, std::optional<int> domain)>;
 
 Status RunQueue(size_t jobs, const std::vector<int>& domains, const RunJob& run);
 
-// checks a --domains list: distinct DDS domain ids Fast DDS's default ports can serve (0-232);
+// checks a --domains list: distinct DDS domain ids Fast DDS's default ports can serve (0-kMaxDdsDomain);
 // the error names the offending entry
 Status CheckDomains(const std::vector<int>& domains);
 

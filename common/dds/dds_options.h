@@ -8,6 +8,9 @@
 
 namespace coins {
 
+// the highest DDS domain id Fast DDS's default well-known ports can serve
+inline constexpr int kMaxDdsDomain = 232;
+
 struct DdsOptions {
   // DDS domain id; processes of one run share it, concurrent runs must differ
   int64_t domain = 0;
@@ -39,7 +42,7 @@ struct DdsOptions {
   double writer_stall_s = 3.0;
 
   void Visit(ConfigVisitor& v) {
-    v.Int("domain", domain, 0, 232, "DDS domain id");
+    v.Int("domain", domain, 0, kMaxDdsDomain, "DDS domain id");
     v.String("discovery", discovery, {"local", "multicast", "server", "peers"}, "discovery mode");
     v.String("discovery_server", discovery_server, {}, "ip:port of the discovery server[,ip:port of its backup]");
     v.String("peers", peers, {}, "ip[,ip...] of the hosts (discovery: peers)");

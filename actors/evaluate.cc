@@ -119,9 +119,11 @@ Result<EvalResult> Evaluate(envs::Env& env, const HierarchyModels& models, int a
     r.goals_cut_by_win = counts.goals_cut_by_win[skill_level - 1];
     r.goals_reached = counts.goals_reached[skill_level - 1];
     r.goals_interacted = counts.goals_interacted[skill_level - 1];
+    r.goals_arrived = counts.goals_arrived[skill_level - 1];
     r.success = r.goals_ended ? double(r.goals_reached) / double(r.goals_ended) : 0.0;
     r.hit_rate = r.goals_ended ? double(r.goals_interacted) / double(r.goals_ended) : 0.0;
     r.accuracy = r.goals_interacted ? double(r.goals_reached) / double(r.goals_interacted) : 0.0;
+    r.arrived = r.goals_ended ? double(r.goals_arrived) / double(r.goals_ended) : 0.0;
     r.by_goal = std::move(tallies);
   }
   Summarise(&r);

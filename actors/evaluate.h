@@ -56,12 +56,14 @@ struct EvalResult {
   double return_median = 0, return_min = 0;
   uint64_t goals_ended = 0, goals_reached = 0;  // the acting skill's (task: the top skill's)
   uint64_t goals_interacted = 0;                // of the goals ended, those ended by a link interaction
+  uint64_t goals_arrived = 0;  // of the goals ended, those with the target at the goal (interaction or not)
   // goals an episode end with a positive reward cut before any interaction (Breakout: the ball
   // skill's goal when the last block breaks); not attempts, so not in goals_ended
   uint64_t goals_cut_by_win = 0;
   double success = 0;   // goals_reached / goals_ended
   double hit_rate = 0;  // goals_interacted / goals_ended
   double accuracy = 0;  // goals_reached / goals_interacted (the angle, given a bounce)
+  double arrived = 0;   // goals_arrived / goals_ended
   // a skill with discrete goals: one tally per goal of its space, in order (their counts sum to
   // goals_ended, goals_interacted, goals_reached); otherwise empty
   std::vector<GoalTally> by_goal;

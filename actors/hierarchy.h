@@ -65,6 +65,9 @@ struct HierarchyCounters {
   uint64_t goals_ended[8] = {}, goals_reached[8] = {};
   // of the attempts, those ended by a detected link interaction (a bounce, reached or not)
   uint64_t goals_interacted[8] = {};
+  // of the attempts, those whose target was at the goal when it ended, with or without a detected
+  // interaction (a block placed within the tolerance; goals_reached also needs the interaction)
+  uint64_t goals_arrived[8] = {};
   // goals of a level whose goals are interactions that an episode end with a positive reward
   // cut before any interaction (Breakout: the ball skill's goal when the last block breaks): no
   // chance to be met, so not attempts (not in goals_ended)
@@ -112,11 +115,12 @@ class HierarchyRunner {
     std::vector<float> action;  // the level's own action (row width)
     int action_steps = 0;
     float reward_sum = 0.0f;
-    bool interaction_seen = false;
+    bool interaction_seen = false;  // the level's link interaction in its current decision
+    bool goal_interacted = false;   // the level's link interaction since its current goal began
   };
   struct Ends {  // per level, this step
     bool terminated = false, success = false, natural = false, goal_end = false, action_end = false;
-    bool interaction = false;
+    bool interaction = false, reached = false;
   };
 
   bool is_skill(int level) const;

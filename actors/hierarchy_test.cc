@@ -163,32 +163,40 @@ TEST(Hierarchy, FirstSkillRowsMarkReachedAndTimedOutGoals) {
 
 // a level whose success needs its link's interaction, but whose goals interactions do not end
 // (pushing's block), ends a goal once reached without one: not a success, and not held to the
-// timeout (the paddle stands in for the block; no detector, so no interaction is ever seen)
+// timeout (the paddle stands in for the block; no detector, so no interaction is ever seen, and
+// with interaction_in_goal no row says an interaction came earlier in its goal)
 TEST(Hierarchy, AGoalThatNeedsAnInteractionToSucceedStillEndsWhenReached) {
-  const FirstSkillRun run([](policy::LevelSpec* s) { s->require_interaction = true; });
-  const Recorder& rec = run.rec;
-  const int px = run.px;
-  uint64_t placed = 0, timed_out = 0;
-  int since_goal = 0;
-  for (const auto& row : rec.rows) {
-    if (row.flags & msg::ROW_SEGMENT_START) {
+  for (bool in_goal : {false, true}) {
+    const FirstSkillRun run([in_goal](policy::LevelSpec* s) {
+      s->require_interaction = true;
+      s->interaction_in_goal = in_goal;
+    });
+    const Recorder& rec = run.rec;
+    const int px = run.px;
+    uint64_t placed = 0, timed_out = 0;
+    int since_goal = 0;
+    for (const auto& row : rec.rows) {
+      if (row.flags & msg::ROW_SEGMENT_START) {
+        since_goal = 0;
+        continue;
+      }
+      ++since_goal;
+      const bool at_goal = std::abs(row.state[size_t(px)] - row.goal[1]) <= 1.0f;
+      EXPECT_FALSE(row.flags & msg::ROW_SKILL_TERMINATED);  // never a success without the interaction
+      EXPECT_FALSE(row.flags & msg::ROW_GOAL_INTERACTED);
+      EXPECT_TRUE(!at_goal || (row.flags & msg::ROW_GOAL_END)) << "a reached goal went on";
+      if (!(row.flags & msg::ROW_GOAL_END)) continue;
+      EXPECT_TRUE(at_goal || since_goal == 30 || (row.flags & msg::ROW_DONE)) << since_goal;
+      placed += at_goal;
+      timed_out += !at_goal && since_goal == 30;
       since_goal = 0;
-      continue;
     }
-    ++since_goal;
-    const bool at_goal = std::abs(row.state[size_t(px)] - row.goal[1]) <= 1.0f;
-    EXPECT_FALSE(row.flags & msg::ROW_SKILL_TERMINATED);  // never a success without the interaction
-    EXPECT_TRUE(!at_goal || (row.flags & msg::ROW_GOAL_END)) << "a reached goal went on";
-    if (!(row.flags & msg::ROW_GOAL_END)) continue;
-    EXPECT_TRUE(at_goal || since_goal == 30 || (row.flags & msg::ROW_DONE)) << since_goal;
-    placed += at_goal;
-    timed_out += !at_goal && since_goal == 30;
-    since_goal = 0;
+    EXPECT_GT(placed, 20u);
+    EXPECT_GT(timed_out, 20u);
+    EXPECT_EQ(run.counters.goals_reached[0], 0u);
+    EXPECT_EQ(run.counters.goals_ended[0], placed + timed_out);
+    EXPECT_EQ(run.counters.goals_arrived[0], placed);
   }
-  EXPECT_GT(placed, 20u);
-  EXPECT_GT(timed_out, 20u);
-  EXPECT_EQ(run.counters.goals_reached[0], 0u);
-  EXPECT_EQ(run.counters.goals_ended[0], placed + timed_out);
 }
 
 // the largest distance between a new goal and the paddle's x where it was drawn, over `steps`
@@ -365,6 +373,10 @@ TEST(Hierarchy, TrainingCountersLeaveOutGoalsCutByAWonEpisodeEnd) {
   // end by the timeout
   EXPECT_GE(c.goals_ended[1], uint64_t(losses));
   EXPECT_EQ(c.goals_reached[1], 0u);
+  // a goal that times out with the ball moving at its velocity arrived there, but without a
+  // detected bounce it is not reached
+  EXPECT_GT(c.goals_arrived[1], 0u);
+  EXPECT_LT(c.goals_arrived[1], c.goals_ended[1]);
 }
 
 // a skill evaluation does not count as failed the goals that an episode end with a positive
@@ -443,6 +455,7 @@ TEST(Evaluate, DiscreteGoalsAreCountedPerGoal) {
   EXPECT_EQ(ended, r->goals_ended);
   EXPECT_EQ(reached, r->goals_reached);
   EXPECT_EQ(interacted, r->goals_interacted);
+  EXPECT_EQ(r->goals_arrived, r->goals_reached) << "no interaction needed: arriving is reaching";
   EXPECT_GT(reached, 0u) << "random paddle moves bounce the ball up now and then";
 
   // a skill with continuous goals has no per-goal counts

@@ -163,6 +163,8 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
   if (spec.is_task()) j["task_weights"] = task_weights;
   j["angle_accuracy"] = skill.require_interaction ? nlohmann::json(r.accuracy) : nlohmann::json(nullptr);
   j["hit_rate"] = skill.require_interaction ? nlohmann::json(r.hit_rate) : nlohmann::json(nullptr);
+  // a reach that needs a detected interaction: how often the target was there at all
+  j["arrived"] = skill.require_interaction ? nlohmann::json(r.arrived) : nlohmann::json(nullptr);
   j["by_goal"] = ByGoalJson(r.by_goal, skill.require_interaction);
   const bool task = spec.is_task();
   j["done_fraction"] = task && !es.done_means.empty() && !r.returns.empty()
@@ -223,6 +225,9 @@ void PrintEval(const EvalFlags& f, const std::string& checkpoint, const envs::En
   if (skill.require_interaction)
     std::cout << fmt::format("  interactions: {:.1f}% of goals (hit rate), {:.1f}% of them at the goal (accuracy)",
                              100.0 * r.hit_rate, 100.0 * r.accuracy)
+              << "\n"
+              << fmt::format("  the {} at the goal when it ended in {:.1f}% of goals, a detected interaction or not",
+                             skill.goal.factor, 100.0 * r.arrived)
               << "\n";
   PrintByGoal(r.by_goal, skill);
   if (r.control_seconds > 0 && r.env_seconds > 0)

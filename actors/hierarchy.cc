@@ -99,7 +99,6 @@ void HierarchyRunner::ChooseAction(int level, std::span<const float> state) {
     counters_.goals_clipped[level - 2]++;
   child.has_goal = true;
   child.goal_steps = 0;
-  child.goal_interacted = false;
 }
 
 void HierarchyRunner::Decide(std::span<const float> state, std::span<float> env_action) {
@@ -119,7 +118,6 @@ void HierarchyRunner::Decide(std::span<const float> state, std::span<float> env_
                          ls.goal.data());
       ls.has_goal = true;
       ls.goal_steps = 0;
-      ls.goal_interacted = false;
     }
     // level 1 acts every step; higher levels when their decision ended
     if (L == 1 || !ls.action_active) ChooseAction(L, state);
@@ -159,9 +157,7 @@ void HierarchyRunner::EndGoals(std::span<const float> next, bool done) {
     s.goal.Achieved(next.data(), achieved_.data());
     const bool reached = s.goal.Reached(achieved_.data(), ls.goal.data());
     e.reached = reached;
-    ls.goal_interacted |= e.interaction;
-    const bool caused = e.interaction || (s.interaction_in_goal && ls.goal_interacted);
-    e.success = reached && (caused || !s.require_interaction);
+    e.success = reached && (e.interaction || !s.require_interaction);
     e.terminated = e.success || (s.terminate_on_interaction && e.interaction);
     // a goal that interactions do not end (a block's position) ends once the target is there,
     // whether or not the detector caught a push at this step; success still needs one
@@ -191,8 +187,7 @@ void HierarchyRunner::EmitRows(std::span<const float> next, std::span<const floa
     const Ends& e = ends_[size_t(L) - 1];
     if (!is_skill(L)) return uint16_t(0);
     return uint16_t((e.terminated ? msg::ROW_SKILL_TERMINATED : 0) |
-                    (e.goal_end && !e.terminated ? msg::ROW_GOAL_END : 0) |
-                    (levels_[size_t(L) - 1].goal_interacted ? msg::ROW_GOAL_INTERACTED : 0));
+                    (e.goal_end && !e.terminated ? msg::ROW_GOAL_END : 0));
   };
   // stream 0: the env step
   std::fill(row_action_.begin(), row_action_.end(), 0.0f);

@@ -115,8 +115,7 @@ class HierarchyRunner {
     std::vector<float> action;  // the level's own action (row width)
     int action_steps = 0;
     float reward_sum = 0.0f;
-    bool interaction_seen = false;  // the level's link interaction in its current decision
-    bool goal_interacted = false;   // the level's link interaction since its current goal began
+    bool interaction_seen = false;
   };
   struct Ends {  // per level, this step
     bool terminated = false, success = false, natural = false, goal_end = false, action_end = false;

@@ -163,40 +163,33 @@ TEST(Hierarchy, FirstSkillRowsMarkReachedAndTimedOutGoals) {
 
 // a level whose success needs its link's interaction, but whose goals interactions do not end
 // (pushing's block), ends a goal once reached without one: not a success, and not held to the
-// timeout (the paddle stands in for the block; no detector, so no interaction is ever seen, and
-// with interaction_in_goal no row says an interaction came earlier in its goal)
+// timeout (the paddle stands in for the block; no detector, so no interaction is ever seen)
 TEST(Hierarchy, AGoalThatNeedsAnInteractionToSucceedStillEndsWhenReached) {
-  for (bool in_goal : {false, true}) {
-    const FirstSkillRun run([in_goal](policy::LevelSpec* s) {
-      s->require_interaction = true;
-      s->interaction_in_goal = in_goal;
-    });
-    const Recorder& rec = run.rec;
-    const int px = run.px;
-    uint64_t placed = 0, timed_out = 0;
-    int since_goal = 0;
-    for (const auto& row : rec.rows) {
-      if (row.flags & msg::ROW_SEGMENT_START) {
-        since_goal = 0;
-        continue;
-      }
-      ++since_goal;
-      const bool at_goal = std::abs(row.state[size_t(px)] - row.goal[1]) <= 1.0f;
-      EXPECT_FALSE(row.flags & msg::ROW_SKILL_TERMINATED);  // never a success without the interaction
-      EXPECT_FALSE(row.flags & msg::ROW_GOAL_INTERACTED);
-      EXPECT_TRUE(!at_goal || (row.flags & msg::ROW_GOAL_END)) << "a reached goal went on";
-      if (!(row.flags & msg::ROW_GOAL_END)) continue;
-      EXPECT_TRUE(at_goal || since_goal == 30 || (row.flags & msg::ROW_DONE)) << since_goal;
-      placed += at_goal;
-      timed_out += !at_goal && since_goal == 30;
+  const FirstSkillRun run([](policy::LevelSpec* s) { s->require_interaction = true; });
+  const Recorder& rec = run.rec;
+  const int px = run.px;
+  uint64_t placed = 0, timed_out = 0;
+  int since_goal = 0;
+  for (const auto& row : rec.rows) {
+    if (row.flags & msg::ROW_SEGMENT_START) {
       since_goal = 0;
+      continue;
     }
-    EXPECT_GT(placed, 20u);
-    EXPECT_GT(timed_out, 20u);
-    EXPECT_EQ(run.counters.goals_reached[0], 0u);
-    EXPECT_EQ(run.counters.goals_ended[0], placed + timed_out);
-    EXPECT_EQ(run.counters.goals_arrived[0], placed);
+    ++since_goal;
+    const bool at_goal = std::abs(row.state[size_t(px)] - row.goal[1]) <= 1.0f;
+    EXPECT_FALSE(row.flags & msg::ROW_SKILL_TERMINATED);  // never a success without the interaction
+    EXPECT_TRUE(!at_goal || (row.flags & msg::ROW_GOAL_END)) << "a reached goal went on";
+    if (!(row.flags & msg::ROW_GOAL_END)) continue;
+    EXPECT_TRUE(at_goal || since_goal == 30 || (row.flags & msg::ROW_DONE)) << since_goal;
+    placed += at_goal;
+    timed_out += !at_goal && since_goal == 30;
+    since_goal = 0;
   }
+  EXPECT_GT(placed, 20u);
+  EXPECT_GT(timed_out, 20u);
+  EXPECT_EQ(run.counters.goals_reached[0], 0u);
+  EXPECT_EQ(run.counters.goals_ended[0], placed + timed_out);
+  EXPECT_EQ(run.counters.goals_arrived[0], placed);  // arrived, though never a success
 }
 
 // the largest distance between a new goal and the paddle's x where it was drawn, over `steps`

@@ -44,9 +44,6 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
   if (p != "task_")
     v.Bool(p + "reach_needs_interaction", reach_needs_interaction,
            "a rare link's goal is reached only at a detected interaction (a bounce); false: the target at the goal");
-  if (p != "task_")
-    v.Bool(p + "reach_interaction_in_goal", reach_interaction_in_goal,
-           "with reach_needs_interaction: an interaction at any step of the goal counts, not only at the arrival");
   if (p == "task_") VisitTaskInputs(v, p);
 }
 

@@ -58,10 +58,6 @@ struct LevelTrainOptions {
   // at the goal is enough (a block position stays where the last push left it, and the detector
   // need not catch that push's last step)
   bool reach_needs_interaction = true;
-  // skills only, with reach_needs_interaction: an interaction detected at any step of the goal
-  // counts, not only one at the arrival step (a push whose last contact the detector misses
-  // still put the block there; a target that was already at the goal was not moved)
-  bool reach_interaction_in_goal = false;
   // the task only: a pair network over the blocks (a multi-instance factor) with these
   // per-block layers instead of the `hidden` Mlp over the whole state; empty: the Mlp
   std::vector<double> pair_hidden;

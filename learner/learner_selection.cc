@@ -41,10 +41,7 @@ void LearnerCore::StartSelection(int level, std::vector<SkillSnapshot> candidate
   o.chunk_goals = kSelectChunkGoals;
   o.chunk_max_steps = options_.eval_max_steps * 10;  // as the periodic skill evaluations
   o.seed = seed_ + kSelectSeedOffset;
-  // a skill rewarded for an interaction at its goal's end (the ball's bounce) is ranked by how
-  // often it gets one; one whose goal only needs an interaction somewhere on the way (a push) by success
-  const policy::LevelSpec& spec = trainer(level)->spec();
-  o.by_interaction = spec.require_interaction && !spec.interaction_in_goal;
+  o.by_interaction = trainer(level)->spec().require_interaction;
   selection_.emplace(level, std::move(candidates), o);
 }
 

@@ -286,8 +286,7 @@ float Sampler::GoalReward(const msg::SampleRequest& req, uint16_t flags, const f
   const GoalNorm norm = req.goal_norm() == msg::GOAL_NORM_L1 ? GoalNorm::kL1 : GoalNorm::kLinf;
   const bool reached = GoalReached({achieved_.data(), m}, {goal, m}, mask, req.goal_epsilon(), norm);
   const bool interaction = (flags & msg::ROW_INTERACTION) != 0;
-  const bool caused = interaction || (req.interaction_in_goal() && (flags & msg::ROW_GOAL_INTERACTED) != 0);
-  const bool success = reached && (caused || !req.require_interaction());
+  const bool success = reached && (interaction || !req.require_interaction());
   const bool done = (flags & msg::ROW_DONE) != 0;
   *terminal = success || done || (req.terminate_on_interaction() && interaction);
   if (success) return req.success_reward();

@@ -27,8 +27,7 @@
 //   per step j, with s' the state after it:
 //   interaction = the row's ROW_INTERACTION flag
 //   success     = GoalReached(mask * s'[target], goal, mask, goal_epsilon, goal_norm) and
-//                 (interaction or not require_interaction, or with interaction_in_goal the row's
-//                 ROW_GOAL_INTERACTED flag: an interaction earlier in the same goal)
+//                 (interaction or not require_interaction)
 //   r_j         = success ? success_reward : (interaction ? interaction_reward : step_reward),
 //                 plus episode_end_reward when the row has ROW_DONE and no success
 //   terminal    = success or ROW_DONE or (terminate_on_interaction and interaction)

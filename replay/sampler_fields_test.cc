@@ -205,20 +205,18 @@ TEST(SamplerFields, RowColumnsAndPolicyVersionFromProvenance) {
 }
 
 // state [x, tx, ty, tz, w], target factor (tx, ty, tz) at offset 1, stored goals [5, 7, 99];
-// the request's mask covers (tx, ty): the first 2 floats of the stored goal; `from_interaction`
-// is added to the flags of the rows from the interaction (row 2) on
+// the request's mask covers (tx, ty): the first 2 floats of the stored goal
 struct GoalRows : Fixture {
-  explicit GoalRows(uint16_t from_interaction = 0) {
+  GoalRows() {
     const TestLayout layout{5, 3};
     const std::vector<float> g{5, 7, 99};
-    const uint16_t later = from_interaction;
     Add(MakeBatch(layout, 1, 0,
                   {{.state = {0, 0, 0, 0, 0}, .flags = msg::ROW_SEGMENT_START, .goal = g},
                    {.state = {1, 1, 0, 0, 0}, .goal = g},
-                   {.state = {2, 2, 3, 0, 0}, .flags = uint16_t(msg::ROW_INTERACTION | later), .goal = g},
-                   {.state = {3, 5, 7, 0, 0}, .flags = later, .goal = g},
-                   {.state = {4, 5.2f, 7.2f, 0, 0}, .flags = later, .goal = g},
-                   {.state = {5, 6, 6, 0, 0}, .flags = uint16_t(msg::ROW_DONE | later), .goal = g}}));
+                   {.state = {2, 2, 3, 0, 0}, .flags = msg::ROW_INTERACTION, .goal = g},
+                   {.state = {3, 5, 7, 0, 0}, .goal = g},
+                   {.state = {4, 5.2f, 7.2f, 0, 0}, .goal = g},
+                   {.state = {5, 6, 6, 0, 0}, .flags = msg::ROW_DONE, .goal = g}}));
   }
   static msg::SampleRequest Goal(uint32_t n_step, std::vector<float> mask = {1, 1}) {
     msg::SampleRequest q = Request(400, n_step);
@@ -285,28 +283,6 @@ TEST(SamplerFields, GoalConditionedNStepRewards) {
   EXPECT_EQ(d[4].reward, -1.0f);
   EXPECT_EQ(d[4].discount, 0.5f);
   EXPECT_EQ(d[3].reward, 10.0f);
-}
-
-// rows after an interaction in the same goal carry ROW_GOAL_INTERACTED (actors set it): with
-// interaction_in_goal an arrival there is a success without an interaction of its own (a push
-// whose last contact the detector missed); without the request's flag, or without the rows'
-// flag (nothing moved the target in this goal), the arrival still needs its own interaction
-TEST(SamplerFields, AnInteractionEarlierInTheGoalCountsForTheArrivalWhenAsked) {
-  GoalRows f(msg::ROW_GOAL_INTERACTED);
-  msg::SampleRequest q = GoalRows::Goal(3);
-  q.require_interaction(true);
-  const float missed = -1 + 0.5f * -1 + 0.25f * -1;  // rows 3, 4, 5: no success
-  EXPECT_FLOAT_EQ(f.ByKey(q)[3].reward, missed);
-  q.interaction_in_goal(true);
-  auto in_goal = f.ByKey(q);
-  EXPECT_EQ(in_goal[3].reward, 10.0f);
-  EXPECT_EQ(in_goal[3].discount, 0.0f);
-  EXPECT_EQ(in_goal[4].reward, 10.0f);
-  EXPECT_FLOAT_EQ(in_goal[1].reward, -1 + 0.5f * -0.5f + 0.25f * 10);
-  EXPECT_EQ(in_goal[1].discount, 0.0f);
-  EXPECT_EQ(in_goal[5].reward, -1.0f);  // (6, 6) is not the goal
-  GoalRows unflagged;
-  EXPECT_FLOAT_EQ(unflagged.ByKey(q)[3].reward, missed);
 }
 
 TEST(SamplerFields, StoredGoalsAreMaskedAndHindsightGoalsComeFromTheMaskedNextState) {

@@ -164,7 +164,6 @@ nlohmann::json ToJson(const LevelSpec& s) {
             {"hold_decision", s.hold_decision},
             {"terminate_on_interaction", s.terminate_on_interaction},
             {"require_interaction", s.require_interaction},
-            {"interaction_in_goal", s.interaction_in_goal},
             {"detector", s.detector},
             {"algorithm", s.algorithm},
             {"hidden", s.hidden},
@@ -227,7 +226,6 @@ LevelSpec ReadSpec(const nlohmann::json& j) {
   s.hold_decision = j.value("hold_decision", false);  // absent from specs written before the key
   s.terminate_on_interaction = j.at("terminate_on_interaction").get<bool>();
   s.require_interaction = j.at("require_interaction").get<bool>();
-  s.interaction_in_goal = j.value("interaction_in_goal", false);  // absent from specs written before the key
   s.detector = j.at("detector").get<std::string>();
   s.algorithm = j.at("algorithm").get<std::string>();
   s.hidden = j.at("hidden").get<std::vector<int>>();

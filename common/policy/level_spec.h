@@ -86,7 +86,6 @@ struct LevelSpec {
                                           // steps (a child that reaches its goal sooner holds it)
   bool terminate_on_interaction = false;  // any detected link interaction ends the goal
   bool require_interaction = false;       // success needs the link interaction
-  bool interaction_in_goal = false;       // with require_interaction: at any step of the goal, not only the arrival
   std::string detector;                   // weights name of the link's detector ("" when none is needed)
   // network
   std::string algorithm = "dqn";         // dqn | ddpg | sac

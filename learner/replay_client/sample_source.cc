@@ -42,7 +42,6 @@ void FillRequest(const SampleSpec& s, msg::SampleRequest* q) {
   q->interaction_reward(s.interaction_reward);
   q->episode_end_reward(s.episode_end_reward);
   q->require_interaction(s.require_interaction);
-  q->interaction_in_goal(s.interaction_in_goal);
   q->terminate_on_interaction(s.terminate_on_interaction);
 }
 

@@ -43,7 +43,6 @@ struct SampleSpec {
   float interaction_reward = -1.0f;
   float episode_end_reward = 0.0f;  // added at an episode's end without success
   bool require_interaction = false;
-  bool interaction_in_goal = false;  // with require_interaction: one earlier in the goal counts too
   bool terminate_on_interaction = false;
 
   bool operator==(const SampleSpec&) const = default;

@@ -213,7 +213,6 @@ Result<LevelSpec> BuildSkillSpec(const envs::EnvSpec& env, const msg::LinkSpec& 
   }
   if (SparseLink(link)) {
     s.require_interaction = o.reach_needs_interaction;
-    s.interaction_in_goal = o.reach_interaction_in_goal;
     s.terminate_on_interaction = o.interaction_ends_goal == "rare";
     s.detector = detector::DetectorWeightsName(link.source(), link.target());
   }

@@ -36,7 +36,6 @@ SampleSpec MakeSampleSpec(const policy::LevelSpec& s, const LevelTrainOptions& o
   q.interaction_reward = float(o.interaction_reward);
   q.episode_end_reward = float(o.episode_end_reward);
   q.require_interaction = s.require_interaction;
-  q.interaction_in_goal = s.interaction_in_goal;
   q.terminate_on_interaction = s.terminate_on_interaction;
   return q;
 }

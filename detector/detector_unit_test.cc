@@ -123,6 +123,21 @@ TEST(PairLayout, MaskUnitsShareOneScaleAcrossPositions) {
   EXPECT_FLOAT_EQ(L.mask_unit(2), 0.05f);
 }
 
+TEST(Evaluation, FalsePositivesAfterLabelsStayInTheWindowAndTheEpisode) {
+  // t:                        0  1  2  3  4  5  6  7  8  9
+  const std::vector<uint8_t> truth = {0, 1, 0, 0, 0, 0, 1, 0, 0, 0};
+  const std::vector<uint8_t> flags = {1, 1, 1, 0, 1, 1, 0, 0, 1, 1};
+  std::vector<uint8_t> starts(truth.size(), 0);
+  starts[0] = 1;
+  // after label 1: t 2 and 4 are within 3, t 5 is not; t 0 comes before any label; a detection
+  // at a label (t 1) is no false positive; after label 6: t 8 and 9
+  EXPECT_EQ(FalsePositivesAfterLabels(flags, truth, starts, 3), 4);
+  EXPECT_EQ(FalsePositivesAfterLabels(flags, truth, starts, 1), 1);  // t 2
+  starts[8] = 1;  // a new episode at t 8: label 6 no longer reaches t 8 and 9
+  EXPECT_EQ(FalsePositivesAfterLabels(flags, truth, starts, 3), 2);
+  EXPECT_EQ(FalsePositivesAfterLabels(flags, truth, starts, 0), 0);
+}
+
 TEST(Options, ValidateNamesTheBadValue) {
   DetectorOptions o;
   EXPECT_TRUE(o.Validate().ok());

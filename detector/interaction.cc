@@ -331,12 +331,28 @@ std::vector<uint8_t> PairDetector::TransitionFlags(const TransitionSet& data) {
   return flags;
 }
 
+int64_t FalsePositivesAfterLabels(std::span<const uint8_t> flags, std::span<const uint8_t> truth,
+                                  std::span<const uint8_t> episode_start, int window) {
+  int64_t count = 0;
+  int64_t since_label = -1;  // transitions since the episode's last label (-1: none yet)
+  for (size_t t = 0; t < flags.size(); ++t) {
+    if (episode_start[t]) since_label = -1;
+    if (truth[t]) {
+      since_label = 0;
+      continue;
+    }
+    if (since_label >= 0) ++since_label;
+    count += flags[t] && since_label >= 1 && since_label <= window;
+  }
+  return count;
+}
+
 PairEvaluation PairDetector::Evaluate(const envs::EnvSpec& spec, const TransitionSet& data) {
   PairEvaluation e;
   e.states = data.size();
   const int bit = InteractionBit(spec, layout_.source, layout_.target);
   e.has_truth = bit >= 0;
-  std::vector<uint8_t> flags(data.size(), 0), why(data.size(), 0);
+  std::vector<uint8_t> flags(data.size(), 0), why(data.size(), 0), truth(data.size(), 0), starts(data.size(), 0);
   Detection d = Detect(data, /*all_instances=*/true);
   for (int64_t j = 0; j < d.samples.size(); ++j) {
     const int64_t t = d.samples.transition[j];
@@ -350,13 +366,15 @@ PairEvaluation PairDetector::Evaluate(const envs::EnvSpec& spec, const Transitio
       e.fn_far += (why[t] & kWhyFar) != 0;
       e.fn_counterfactual += (why[t] & kWhyCounterfactual) != 0;
     }
-    const bool truth = e.has_truth && (data.interactions(t) >> bit) & 1u;
+    truth[t] = e.has_truth && (data.interactions(t) >> bit) & 1u;
+    starts[t] = data.episode_start(t);
     e.detected += flags[t];
-    e.true_interactions += truth;
-    e.false_positives += flags[t] && !truth;
-    e.false_negatives += truth && !flags[t];
+    e.true_interactions += truth[t];
+    e.false_positives += flags[t] && !truth[t];
+    e.false_negatives += truth[t] && !flags[t];
   }
   if (!e.has_truth) return e;
+  e.fp_after_interaction = FalsePositivesAfterLabels(flags, truth, starts, kFalsePositiveWindow);
   e.fp_per_state = e.states ? double(e.false_positives) / double(e.states) : 0.0;
   e.fn_per_interaction = e.true_interactions ? double(e.false_negatives) / double(e.true_interactions) : 0.0;
   return e;

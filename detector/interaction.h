@@ -68,7 +68,18 @@ struct PairEvaluation {
   double fp_per_state = 0.0, fn_per_interaction = 0.0;
   // why labelled interactions were missed (a miss can have several reasons)
   int64_t fn_act_low = 0, fn_pas_high = 0, fn_far = 0, fn_counterfactual = 0;
+  // false positives within kFalsePositiveWindow transitions after a labelled interaction of the
+  // same episode: the target still moving on from it (a cube sliding after the push)
+  int64_t fp_after_interaction = 0;
 };
+
+inline constexpr int kFalsePositiveWindow = 3;
+
+// the detections (flags[t] set) at transitions without a label (truth[t] clear) that come at
+// most `window` transitions after a labelled one, counting no further back than the episode's
+// first transition (episode_start[t] set); all spans the same size
+int64_t FalsePositivesAfterLabels(std::span<const uint8_t> flags, std::span<const uint8_t> truth,
+                                  std::span<const uint8_t> episode_start, int window);
 
 class PairDetector {
  public:

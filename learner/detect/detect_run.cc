@@ -131,6 +131,7 @@ nlohmann::json ScreenedTarget(const DetectRequest& req, const envs::EnvSpec& spe
     j["true_interactions"] = 0;
     j["detected"] = 0;
     j["false_positives"] = 0;
+    j["fp_after_interaction"] = 0;
     j["false_negatives"] = 0;
     j["fn_reasons"] = nlohmann::json::object();
   }
@@ -172,6 +173,7 @@ void AddEvaluation(PairDetector& det, const envs::EnvSpec& spec, const Transitio
   j["true_interactions"] = e.true_interactions;
   j["detected"] = e.detected;
   j["false_positives"] = e.false_positives;
+  j["fp_after_interaction"] = e.fp_after_interaction;  // within kFalsePositiveWindow steps of a label
   j["false_negatives"] = e.false_negatives;
   j["fn_reasons"] = {{"active_low", e.fn_act_low},
                      {"passive_high", e.fn_pas_high},
@@ -313,10 +315,12 @@ std::string FormatDetectTable(const nlohmann::json& r) {
     if (t.contains("note")) out += fmt::format("{:<10} note: {}\n", "", t["note"].get<std::string>());
     if (eval) {
       out += fmt::format(
-          "{:<10} eval: fp/state {}  fn/interaction {}  ({} labelled, {} detected; misses: {})\n", "",
-          t["fp_per_state"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fp_per_state"].get<double>()),
+          "{:<10} eval: fp/state {}  fn/interaction {}  ({} labelled, {} detected, {} false positives, "
+          "{} of them within {} steps after a label; misses: {})\n",
+          "", t["fp_per_state"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fp_per_state"].get<double>()),
           t["fn_per_interaction"].is_null() ? "n/a" : fmt::format("{:.3g}", t["fn_per_interaction"].get<double>()),
-          t["true_interactions"].get<int64_t>(), t["detected"].get<int64_t>(), t["fn_reasons"].dump());
+          t["true_interactions"].get<int64_t>(), t["detected"].get<int64_t>(), t["false_positives"].get<int64_t>(),
+          t["fp_after_interaction"].get<int64_t>(), kFalsePositiveWindow, t["fn_reasons"].dump());
     }
   }
   if (r.contains("granger")) {

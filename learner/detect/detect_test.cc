@@ -188,10 +188,11 @@ TEST(DetectCli, JsonHasTheDocumentedKeys) {
   ASSERT_EQ(j["targets"].size(), 1u);
   const auto& t = j["targets"][0];
   for (const char* key : {"target", "score", "mg_score", "interactions", "mask", "goal_set", "goal_kind", "pass",
-                          "fp_per_state", "fn_per_interaction"}) {
+                          "fp_per_state", "fn_per_interaction", "false_positives", "fp_after_interaction"}) {
     EXPECT_TRUE(t.contains(key)) << key;
   }
   EXPECT_EQ(t["target"], "Paddle");
+  EXPECT_LE(t["fp_after_interaction"].get<int64_t>(), t["false_positives"].get<int64_t>());
   EXPECT_TRUE(t["pass"].is_boolean());
   EXPECT_EQ(t["mask"].size(), 5u);
   EXPECT_EQ(j["granger"].size(), 1u);

@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "actors/envs/breakout_planner.h"
 #include "actors/envs/env.h"
 #include "actors/evaluate.h"
 #include "common/cli_checks.h"
@@ -256,22 +257,63 @@ double VanillaCurveFinal(const Cell& vanilla) {
   return MeanSd(last).first;
 }
 
-// the reference a variant's returns are read against: uniform random primitive actions over as
-// many episodes as the methods' final evaluations hold together, from the first of their seeds
+// the references a variant's returns are read against, each over as many episodes as the
+// methods' final evaluations hold together: uniform random primitive actions (a method must beat
+// them to have learned anything) and, on Breakout, an ideal ball controller under random angles
+// and under a search of the next bounces in simulator copies (actors/envs/breakout_planner.h:
+// what a task over a perfect ball skill could score without and with foresight)
 struct Reference {
+  std::string key;     // in the JSON table
+  std::string column;  // in the Markdown table
   double mean = 0, sd = 0;
   int64_t episodes = 0;
 };
 
-Result<Reference> RandomPolicyReturn(const ExperimentFlags& f, const std::string& env_name) {
+constexpr int kPlanDepth = 2;
+constexpr uint64_t kReferenceSeed = 1001;
+
+bool HasAngleReferences(const Suite& suite) { return suite.env_prefix == "breakout-"; }
+
+Result<Reference> RandomPolicyReturn(int episodes, const std::string& env_name) {
   auto env = envs::MakeEnv(env_name);
   if (!env.ok()) return env.status();
   EvalOptions o;
-  o.episodes = int(f.eval_episodes * f.seeds);
-  o.seed = 1001;
+  o.episodes = episodes;
+  o.seed = kReferenceSeed;
   auto r = Evaluate(**env, HierarchyModels{}, /*acting=*/0, o);
   if (!r.ok()) return r.status();
-  return Reference{r->return_mean, r->return_sd, int64_t(r->returns.size())};
+  return Reference{"random_actions", "random actions", r->return_mean, r->return_sd, int64_t(r->returns.size())};
+}
+
+Result<Reference> PlannedAnglesReturn(int episodes, const std::string& env_name, int depth) {
+  envs::AnglePlanOptions o;
+  o.env = env_name;
+  o.episodes = episodes;
+  o.depth = depth;
+  o.seed = kReferenceSeed;
+  auto r = envs::PlanAngles(o);
+  if (!r.ok()) return r.status();
+  if (depth == 0)
+    return Reference{"ideal_ball_random_angles", "ideal ball, random angles", r->mean(), r->sd(), episodes};
+  return Reference{fmt::format("ideal_ball_search_{}", depth), fmt::format("ideal ball, {}-bounce search", depth),
+                   r->mean(), r->sd(), episodes};
+}
+
+Result<std::vector<Reference>> References(const ExperimentFlags& f, const std::string& variant) {
+  const Suite& suite = SuiteNamed(f.suite);
+  const std::string env = suite.env_prefix + variant;
+  const int episodes = int(f.eval_episodes * f.seeds);
+  std::vector<Result<Reference>> got{RandomPolicyReturn(episodes, env)};
+  if (HasAngleReferences(suite)) {
+    got.push_back(PlannedAnglesReturn(episodes, env, 0));
+    got.push_back(PlannedAnglesReturn(episodes, env, kPlanDepth));
+  }
+  std::vector<Reference> refs;
+  for (auto& r : got) {
+    if (!r.ok()) return r.status();
+    refs.push_back(*r);
+  }
+  return refs;
 }
 
 // env steps of the first evaluation at or above `level`, per run (nullopt: never)
@@ -332,6 +374,10 @@ std::string TableHeader(const ExperimentFlags& f, bool fractions) {
   for (const auto& m : f.methods) md += fmt::format(" {} |", m);
   md += " random actions |";
   ++columns;
+  if (HasAngleReferences(SuiteNamed(f.suite))) {
+    md += fmt::format(" ideal ball, random angles | ideal ball, {}-bounce search |", kPlanDepth);
+    columns += 2;
+  }
   for (const auto& m : f.methods) md += fmt::format(" {} (paper) |", m);
   for (const auto& m : f.methods) md += fmt::format(" {}: median episode |", m);
   for (const auto& m : f.methods) md += fmt::format(" {}: steps to vanilla's final (periodic evals) |", m);
@@ -346,7 +392,7 @@ std::string TableHeader(const ExperimentFlags& f, bool fractions) {
 }
 
 Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::map<std::string, Cell>>& cells,
-                   const std::map<std::string, Reference>& random) {
+                   const std::map<std::string, std::vector<Reference>>& references) {
   const Suite& suite = SuiteNamed(f.suite);
   json j = {{"suite", f.suite},
             {"chain", fs::absolute(f.chain).lexically_normal().string()},
@@ -363,8 +409,16 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       "Median episode: the median episode return of each final evaluation, mean +- sd over seeds (a few lost "
       "episodes move the mean, not the median). "
       "Random actions: uniform random primitive actions, the return a method must beat to have learned anything "
-      "(mean +- sd over episodes).\n\n",
-      suite.title, f.chain, f.steps, f.seeds, f.eval_episodes);
+      "(mean +- sd over episodes).{}\n\n",
+      suite.title, f.chain, f.steps, f.seeds, f.eval_episodes,
+      HasAngleReferences(suite)
+          ? fmt::format(" Ideal ball: not a method but a bound, `coins env plan` (actors/envs/breakout_planner.h): the "
+                        "paddle placed from the simulator's state so the ball leaves at the chosen one of the four "
+                        "angles, the angles chosen at random or by searching the next {} bounces in copies of the "
+                        "simulator; what a task over a perfect ball skill could score without and with that "
+                        "foresight.",
+                        kPlanDepth)
+          : std::string());
   md += TableHeader(f, fractions);
   for (const auto& v : f.variants) {
     const auto& row = cells.at(v);
@@ -385,9 +439,10 @@ Status WriteTables(const ExperimentFlags& f, const std::map<std::string, std::ma
       md += c.finals.empty() ? " not run |" : MeanSdCell(c.finals);
       if (has_vanilla) out["steps_to_vanilla_final"] = StepsToReach(c, level);
     }
-    const Reference& ref = random.at(v);
-    j["variants"][v]["random_actions"] = {{"mean", ref.mean}, {"sd", ref.sd}, {"episodes", ref.episodes}};
-    md += fmt::format(" {:.2f} +- {:.2f} |", ref.mean, ref.sd);
+    for (const Reference& ref : references.at(v)) {
+      j["variants"][v][ref.key] = {{"mean", ref.mean}, {"sd", ref.sd}, {"episodes", ref.episodes}};
+      md += fmt::format(" {:.2f} +- {:.2f} |", ref.mean, ref.sd);
+    }
     for (const auto& m : f.methods) {
       const auto p = suite.paper.count(v) && suite.paper.at(v).count(m) ? suite.paper.at(v).at(m) : NAN;
       j["variants"][v]["paper"][m] = std::isnan(p) ? json(nullptr) : json(p);
@@ -521,13 +576,13 @@ Status RunExperiment(const ExperimentFlags& flags) {
     if (!r.refused.empty()) c.not_run = r.refused;
     if (r.result) Add(c, *r.result);
   }
-  std::map<std::string, Reference> random;
+  std::map<std::string, std::vector<Reference>> references;
   for (const auto& v : f.variants) {
-    auto ref = RandomPolicyReturn(f, SuiteNamed(f.suite).env_prefix + v);
-    if (!ref.ok()) return ref.status();
-    random[v] = *ref;
+    auto refs = References(f, v);
+    if (!refs.ok()) return refs.status();
+    references[v] = std::move(*refs);
   }
-  COINS_RETURN_IF_ERROR(WriteTables(f, cells, random));
+  COINS_RETURN_IF_ERROR(WriteTables(f, cells, references));
   for (const auto& v : f.variants)
     if (Status s = WriteCurves(f, v); !s.ok()) std::cerr << "coins experiment: " << s.message() << "\n";
   if (auto md = ReadFileText((fs::path(f.out) / (f.suite + ".md")).string()); md.ok()) std::cout << *md << "\n";

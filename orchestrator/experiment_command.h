@@ -18,7 +18,9 @@
 // final checkpoint (--eval-episodes, a fixed seed per run; pushing: greedy); its curve is the
 // learner's periodic evaluations (eval.csv). Written to OUT: SUITE.json and SUITE.md (mean +- sd
 // over seeds beside the paper's numbers and the return of uniform random actions on the same
-// episodes' seeds (eval-episodes x seeds episodes; what "learned nothing" scores), the env steps each method's periodic
+// episodes' seeds (eval-episodes x seeds episodes; what "learned nothing" scores), on Breakout
+// also an ideal ball controller under random angles and under a 2-bounce search (`coins env plan`:
+// bounds for a task over a perfect ball skill), the env steps each method's periodic
 // evaluations needed to reach vanilla's last one, and where the env has them the fraction of episodes reaching the goal
 // and of steps in penalty regions), and curves-VARIANT.png.
 #pragma once

@@ -381,6 +381,14 @@ TEST(Experiment, TransferTableFromCoinsAndVanillaRunsThatAreKeptWhenFinished) {
   EXPECT_LT(random["mean"].get<double>(), -7.0) << random;
   EXPECT_GT(random["mean"].get<double>(), -12.0) << random;
   EXPECT_GT(random["sd"].get<double>(), 0.0) << "some episodes bounce the ball: " << random;
+  // the ideal-ball bounds: a perfect ball skill never drops, so random angles cost only bounces
+  // (-1 each) until the block is hit, and two bounces of foresight hit it within a bounce or two
+  const nlohmann::json& angles = t["variants"]["single"]["ideal_ball_random_angles"];
+  const nlohmann::json& search = t["variants"]["single"]["ideal_ball_search_2"];
+  EXPECT_EQ(angles["episodes"], 20);
+  EXPECT_GT(angles["mean"].get<double>(), random["mean"].get<double>()) << angles;
+  EXPECT_GT(search["mean"].get<double>(), angles["mean"].get<double>() + 2.0) << search;
+  EXPECT_GE(search["mean"].get<double>(), -1.0) << search;
   // a method's steps to vanilla's final are counted on one measurement: the periodic evaluations
   // (a run this short has none: its final evaluation stands in)
   auto vanilla = ReadRunResult((out / "single" / "vanilla-seed1").string());

@@ -1,6 +1,7 @@
 #include "actors/envs/env_cli.h"
 
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "actors/envs/breakout_planner.h"
 #include "actors/envs/render.h"
 #include "actors/envs/rng.h"
 #include "actors/envs/rollout_format.h"
@@ -237,6 +239,30 @@ Status RunRender(const RenderOptions& o) {
   return WriteGif(o.out, frames, o.delay_cs);
 }
 
+Status RunPlan(const AnglePlanOptions& o, bool json) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Result<AnglePlanResult> r = PlanAngles(o);
+  if (!r.ok()) return r.status();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double n = double(r->returns.size());
+  if (json) {
+    nlohmann::json j{{"env", o.env},           {"depth", o.depth},
+                     {"episodes", o.episodes}, {"seed", o.seed},
+                     {"mean", r->mean()},      {"sd", r->sd()},
+                     {"returns", r->returns},  {"bounces", r->bounces},
+                     {"drops", r->drops},      {"env_steps", r->env_steps},
+                     {"seconds", seconds}};
+    fmt::print("{}\n", j.dump());
+  } else {
+    fmt::print(
+        "{}, ideal ball controller, {}: return {:.2f} +- {:.2f} over {} episodes ({:.2f} paddle bounces an "
+        "episode, {} drops, {} env steps, {:.1f} s)\n",
+        o.env, o.depth == 0 ? std::string("random reachable angles") : fmt::format("search depth {}", o.depth),
+        r->mean(), r->sd(), o.episodes, double(r->bounces) / n, r->drops, r->env_steps, seconds);
+  }
+  return Status::Ok();
+}
+
 void AddEnvCommands(CLI::App& app) {
   CLI::App* env = app.add_subcommand("env", "Environments: list them, write rollouts, render pictures");
   env->require_subcommand(1);
@@ -280,6 +306,25 @@ void AddEnvCommands(CLI::App& app) {
   render->add_option("--height", rd->height, "Pushing: image height (<= 480)")->check(CLI::Range(16, 480));
   render->add_option("--delay", rd->delay_cs, "GIF frame delay in 1/100 s")->check(CLI::Range(1, 1000));
   render->callback([rd] { cli::FailIf("env render", RunRender(*rd), 1); });
+
+  // plan
+  auto po = std::make_shared<AnglePlanOptions>();
+  auto plan_json = std::make_shared<bool>(false);
+  std::vector<std::string> breakouts;
+  for (const std::string& n : names)
+    if (n.rfind("breakout", 0) == 0) breakouts.push_back(n);
+  CLI::App* plan = env->add_subcommand(
+      "plan",
+      "A reference, not a method: Breakout with an ideal ball controller choosing each bounce angle by search over "
+      "the next --depth bounces in copies of the simulator (0: random angles)");
+  plan->add_option("--env", po->env, "Breakout env name")->required()->check(CLI::IsMember(breakouts));
+  plan->add_option("--episodes", po->episodes, "Episodes")->check(cli::Integer(1, 1'000'000));
+  plan->add_option("--depth", po->depth, "Bounces searched ahead, 0 to 4 (0: random reachable angles)")
+      ->check(cli::Integer(0, 4));
+  plan->add_option("--seed", po->seed, "Episode e starts from seed + e")->check(seed_check);
+  plan->add_option("--max-steps", po->max_steps, "Env steps per episode at most")->check(cli::Integer(1, 10'000'000));
+  plan->add_flag("--json", *plan_json, "Print one JSON object");
+  plan->callback([po, plan_json] { cli::FailIf("env plan", RunPlan(*po, *plan_json), 1); });
 }
 
 }  // namespace coins::envs

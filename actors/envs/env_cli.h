@@ -3,6 +3,7 @@
 //   env list [--json]
 //   env rollout --env NAME --seed N (--actions FILE | --policy random --steps S) --out FILE
 //   env render  --env NAME --seed N --policy random --steps S --out FILE.png|FILE.gif
+//   env plan    --env breakout-VARIANT [--depth D] [--episodes N] [--seed S] [--json]   (breakout_planner.h)
 //
 // A rollout line is one transition: {"t", "episode", "state", "action", "next_state",
 // "reward", "done", "truncated", "interactions"}; "t" counts transitions from 0 across the

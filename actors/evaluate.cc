@@ -23,11 +23,9 @@ class DiscardRows final : public RowSink {
 
 void Summarise(EvalResult* r) {
   if (r->returns.empty()) return;
-  double sum = 0, sq = 0;
-  for (double x : r->returns) sum += x;
-  r->return_mean = sum / double(r->returns.size());
-  for (double x : r->returns) sq += (x - r->return_mean) * (x - r->return_mean);
-  r->return_sd = std::sqrt(sq / double(r->returns.size()));
+  const MeanAndSd m = MeanSd(r->returns);
+  r->return_mean = m.mean;
+  r->return_sd = m.sd;
   r->return_median = Median(r->returns);
   r->return_min = *std::min_element(r->returns.begin(), r->returns.end());
 }

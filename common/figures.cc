@@ -16,6 +16,17 @@ double Median(std::vector<double> samples) {
   return n % 2 ? samples[n / 2] : 0.5 * (samples[n / 2 - 1] + samples[n / 2]);
 }
 
+MeanAndSd MeanSd(const std::vector<double>& samples, bool sample) {
+  if (samples.empty()) return {};
+  double sum = 0, sq = 0;
+  for (double x : samples) sum += x;
+  const double mean = sum / double(samples.size());
+  for (double x : samples) sq += (x - mean) * (x - mean);
+  const size_t n = samples.size();
+  if (sample) return {mean, n > 1 ? std::sqrt(sq / double(n - 1)) : 0.0};
+  return {mean, std::sqrt(sq / double(n))};
+}
+
 void Figures::Add(std::string name, double value, std::string unit) {
   figures_.push_back({std::move(name), value, std::move(unit)});
 }

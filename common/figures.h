@@ -30,4 +30,11 @@ class Figures {
 
 double Median(std::vector<double> samples);
 
+// mean and standard deviation of samples: the population's (divided by n) or, with sample, the
+// sample's (divided by n - 1; 0 for one value); both 0 when there are none
+struct MeanAndSd {
+  double mean = 0.0, sd = 0.0;
+};
+MeanAndSd MeanSd(const std::vector<double>& samples, bool sample = false);
+
 }  // namespace coins

@@ -13,7 +13,6 @@
 #include <mutex>
 #include <optional>
 #include <thread>
-#include <tuple>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -22,6 +21,7 @@
 #include "actors/envs/env.h"
 #include "actors/evaluate.h"
 #include "common/cli_checks.h"
+#include "common/figures.h"
 #include "common/files.h"
 #include "common/process.h"
 #include "orchestrator/child_process.h"
@@ -222,30 +222,22 @@ Result<RunResult> EnsureRun(const fs::path& dir, const std::vector<std::string>&
   return result;
 }
 
-// mean and sample standard deviation (0 for one value)
-std::pair<double, double> MeanSd(const std::vector<double>& xs) {
-  if (xs.empty()) return {0.0, 0.0};
-  double sum = 0, sq = 0;
-  for (double x : xs) sum += x;
-  const double mean = sum / double(xs.size());
-  for (double x : xs) sq += (x - mean) * (x - mean);
-  return {mean, xs.size() > 1 ? std::sqrt(sq / double(xs.size() - 1)) : 0.0};
-}
-
 void Add(Cell& c, const RunResult& r) {
   c.finals.push_back(r.final_return);
   if (!std::isnan(r.final_median)) c.medians.push_back(r.final_median);
   if (!std::isnan(r.done_fraction)) c.done.push_back(r.done_fraction);
   if (!std::isnan(r.penalty_fraction)) c.penalty.push_back(r.penalty_fraction);
   c.runs.push_back(r);
-  std::tie(c.mean, c.sd) = MeanSd(c.finals);
+  const MeanAndSd m = MeanSd(c.finals, /*sample=*/true);
+  c.mean = m.mean;
+  c.sd = m.sd;
 }
 
 // a table cell of values over runs: " -12.30 +- 4.10 |" (mean +- sd), or of fractions as
 // percentages, " 41.3 +- 2.0% |"; " - |" without values
 std::string MeanSdCell(const std::vector<double>& values, bool percent = false) {
   if (values.empty()) return " - |";
-  const auto [mean, sd] = MeanSd(values);
+  const auto [mean, sd] = MeanSd(values, /*sample=*/true);
   return percent ? fmt::format(" {:.1f} +- {:.1f}% |", 100 * mean, 100 * sd)
                  : fmt::format(" {:.2f} +- {:.2f} |", mean, sd);
 }
@@ -254,7 +246,7 @@ std::string MeanSdCell(const std::vector<double>& values, bool percent = false) 
 double VanillaCurveFinal(const Cell& vanilla) {
   std::vector<double> last;
   for (const RunResult& r : vanilla.runs) last.push_back(r.curve.empty() ? r.final_return : r.curve.back().second);
-  return MeanSd(last).first;
+  return MeanSd(last, /*sample=*/true).mean;
 }
 
 // the references a variant's returns are read against, each over as many episodes as the

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "actors/envs/rng.h"
+#include "common/figures.h"
 
 namespace coins::envs {
 namespace {
@@ -128,18 +129,12 @@ class Planner {
   Rng rng_;
 };
 
-// copies of one env for the search (a deeper level restores its own saved state)
-struct SearchEnvs {
-  explicit SearchEnvs(BreakoutVariant v) : scratch(v), copy(v) {}
-  BreakoutEnv scratch, copy;
-};
-
+// the variant of a Breakout env name (MakeEnv knows the names)
 Result<BreakoutVariant> VariantNamed(const std::string& name) {
-  for (BreakoutVariant v :
-       {BreakoutVariant::kBase, BreakoutVariant::kSingle, BreakoutVariant::kHard, BreakoutVariant::kBig,
-        BreakoutVariant::kNeg, BreakoutVariant::kCenter, BreakoutVariant::kProx})
-    if (BreakoutName(v) == name) return v;
-  return Errorf("env '{}' is not a Breakout env (the angle planner needs one)", name);
+  auto env = MakeEnv(name);
+  const auto* breakout = env.ok() ? dynamic_cast<const BreakoutEnv*>(env->get()) : nullptr;
+  if (breakout == nullptr) return Errorf("env '{}' is not a Breakout env (the angle planner needs one)", name);
+  return breakout->variant();
 }
 
 }  // namespace
@@ -151,19 +146,9 @@ Status AnglePlanOptions::Validate() const {
   return VariantNamed(env).status();
 }
 
-double AnglePlanResult::mean() const {
-  double s = 0.0;
-  for (double r : returns) s += r;
-  return returns.empty() ? 0.0 : s / double(returns.size());
-}
+double AnglePlanResult::mean() const { return MeanSd(returns).mean; }
 
-double AnglePlanResult::sd() const {
-  if (returns.empty()) return 0.0;
-  const double m = mean();
-  double s = 0.0;
-  for (double r : returns) s += (r - m) * (r - m);
-  return std::sqrt(s / double(returns.size()));
-}
+double AnglePlanResult::sd() const { return MeanSd(returns).sd; }
 
 BounceOutcome BounceAt(BreakoutEnv& env, BreakoutEnv& scratch, int angle, int max_steps) {
   std::vector<float> state = StateBuffer(env);
@@ -183,9 +168,8 @@ BounceOutcome BounceAt(BreakoutEnv& env, BreakoutEnv& scratch, int angle, int ma
 Result<AnglePlanResult> PlanAngles(const AnglePlanOptions& o) {
   COINS_RETURN_IF_ERROR(o.Validate());
   const BreakoutVariant variant = *VariantNamed(o.env);
-  BreakoutEnv env(variant);
-  SearchEnvs search(variant);
-  Planner planner(search.scratch, search.copy, o.depth, o.max_steps, o.seed);
+  BreakoutEnv env(variant), scratch(variant), copy(variant);
+  Planner planner(scratch, copy, o.depth, o.max_steps, o.seed);
   std::vector<float> state = StateBuffer(env);
   AnglePlanResult result;
   for (int e = 0; e < o.episodes; ++e) {
@@ -196,7 +180,7 @@ Result<AnglePlanResult> PlanAngles(const AnglePlanOptions& o) {
     while (!done && steps < o.max_steps) {
       const int angle = planner.Choose(env);
       const BounceOutcome b =
-          angle < 0 ? FallToEnd(env, o.max_steps - steps) : BounceAt(env, search.scratch, angle, o.max_steps - steps);
+          angle < 0 ? FallToEnd(env, o.max_steps - steps) : BounceAt(env, scratch, angle, o.max_steps - steps);
       if (angle < 0) ++result.drops;
       if (b.bounced) ++result.bounces;
       total += b.reward;

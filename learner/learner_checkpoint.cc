@@ -80,6 +80,11 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
                       {"episodes", best_task_->episodes},
                       {"seed", best_task_->seed},
                       {"file", "task-best.bin"}};
+    for (size_t i = 0; i < best_task_->skills.size(); ++i) {
+      const std::string file = "task-best-skill-" + std::to_string(i + 1) + ".bin";
+      COINS_RETURN_IF_ERROR(WriteFileAtomic(tmp + "/" + file, best_task_->skills[i]));
+      j["best_task"]["skill_files"].push_back(file);
+    }
   }
   COINS_RETURN_IF_ERROR(SaveSelection(tmp, &j));
   for (const auto& [target, d] : detectors_) {
@@ -168,16 +173,31 @@ Status LearnerCore::LoadBestTask(const std::string& dir, const nlohmann::json& s
   best_task_.reset();
   if (!state.contains("best_task")) return Status::Ok();
   const json& b = state.at("best_task");
-  BestTask best{b.at("level").get<int>(),          b.at("env_steps").get<uint64_t>(),
-                b.at("return_mean").get<double>(), b.at("return_sd").get<double>(),
+  BestTask best{b.at("level").get<int>(),
+                b.at("env_steps").get<uint64_t>(),
+                b.at("return_mean").get<double>(),
+                b.at("return_sd").get<double>(),
                 b.value("episodes", int64_t(0)),  // absent in checkpoints of older versions
-                b.value("seed", uint64_t(0)),      {}};
+                b.value("seed", uint64_t(0)),
+                {},
+                {}};
   const std::string file = dir + "/" + b.at("file").get<std::string>();
   PolicyTrainer* t = trainer(best.level);
   if (!t || !t->spec().is_task()) return Errorf("{}: the best task's level {} holds no task", file, best.level);
   auto blob = ReadActingFile(t->spec(), file);
   if (!blob.ok()) return blob.status();
   best.acting = std::move(*blob);
+  // the skills' weights it was evaluated with (absent: the skills did not train under the task)
+  const json files = b.value("skill_files", json::array());
+  if (!files.empty() && files.size() != size_t(best.level) - 1)
+    return Errorf("{}/state.json: the best task of level {} lists {} skill files", dir, best.level, files.size());
+  for (size_t i = 0; i < files.size(); ++i) {
+    PolicyTrainer* skill = trainer(int(i) + 1);
+    if (!skill) return Errorf("{}/state.json: the best task's skill level {} has no trainer", dir, i + 1);
+    auto skill_blob = ReadActingFile(skill->spec(), dir + "/" + files[i].get<std::string>());
+    if (!skill_blob.ok()) return skill_blob.status();
+    best.skills.push_back(std::move(*skill_blob));
+  }
   best_task_ = std::move(best);
   return Status::Ok();
 }

@@ -155,6 +155,9 @@ Status LearnerCore::OnCommand(const msg::ChainCommand& cmd, Outputs* out) {
   }
   train_level_ = level;
   status_.updates(uint64_t(trainer(level)->updates() - job_start_updates_));
+  if (trainer(level)->spec().is_task() && level > 1 && options_.skill_updates_in_task > 0)
+    spdlog::info("{} keeps training under the task: {} update(s) per task update", specs_[size_t(level) - 2].name,
+                 options_.skill_updates_in_task);
   // every level the actors run: its spec and newest weights, and the link detectors they need
   for (int L = 1; L <= level; ++L) {
     if (!published_.count(specs_[size_t(L) - 1].name) || L == level) PublishLevel(L, out);
@@ -255,6 +258,7 @@ Result<bool> LearnerCore::TrainWork(SampleSource* source, uint64_t env_steps, Ou
   status_.total_updates(status_.total_updates() + 1);
   RecordLag(t->last(), train_level_);
   if ((job_updates + 1) % Group(train_level_, t->spec().is_task()).publish_every == 0) PublishLevel(train_level_, out);
+  COINS_RETURN_IF_ERROR(TrainSkillUnderTask(source, out));
   if (snapshots_.Due(train_level_, env_steps)) snapshots_.Add(env_steps, t->ActingBlob());
   if (next_eval_at_ == 0) next_eval_at_ = env_steps + uint64_t(options_.eval_every_steps);
   if (env_steps >= next_eval_at_) {
@@ -269,6 +273,22 @@ Result<bool> LearnerCore::TrainWork(SampleSource* source, uint64_t env_steps, Ou
     next_retrain_at_ = env_steps + uint64_t(options_.detector_retrain_steps);
   }
   return true;
+}
+
+Status LearnerCore::TrainSkillUnderTask(SampleSource* source, Outputs* out) {
+  if (options_.skill_updates_in_task <= 0 || train_level_ < 2 || !specs_[size_t(train_level_) - 1].is_task())
+    return Status::Ok();
+  const int level = train_level_ - 1;
+  PolicyTrainer* skill = trainer(level);
+  if (!skill) return Status::Ok();
+  const int64_t publish_every = Group(level, false).publish_every;
+  for (int64_t i = 0; i < options_.skill_updates_in_task; ++i) {
+    auto step = skill->Update(source);
+    if (!step.ok()) return IsWaiting(step.status()) ? Status::Ok() : step.status().WithContext(skill->spec().name);
+    status_.total_updates(status_.total_updates() + 1);
+    if (skill->updates() % publish_every == 0) PublishLevel(level, out);
+  }
+  return Status::Ok();
 }
 
 void LearnerCore::ClearEval() {
@@ -337,7 +357,10 @@ Status LearnerCore::ConsiderBestTask(envs::Env& env, const HierarchyModels& mode
                         confirming.return_sd,
                         int64_t(o.episodes),
                         o.seed,
-                        trainer(train_level_)->ActingBlob()};
+                        trainer(train_level_)->ActingBlob(),
+                        {}};
+  if (options_.skill_updates_in_task > 0)
+    for (int L = 1; L < train_level_; ++L) best_task_->skills.push_back(trainer(L)->ActingBlob());
   spdlog::info("the best task policy so far: return {:.2f} at {} env steps", confirming.return_mean, env_steps);
   return Status::Ok();
 }
@@ -388,7 +411,11 @@ Result<std::unique_ptr<HierarchyModels>> LearnerCore::Models(int levels, bool be
     if (!net.ok()) return net.status();
     m->net = std::move(*net);
     const bool best = best_task && best_task_ && best_task_->level == L;
-    COINS_RETURN_IF_ERROR(m->net.Load(best ? best_task_->acting : t->ActingBlob(), t->spec().name));
+    const bool under_best = best_task && best_task_ && L < best_task_->level && !best_task_->skills.empty();
+    const std::vector<uint8_t> acting = best         ? best_task_->acting
+                                        : under_best ? best_task_->skills[size_t(L) - 1]
+                                                     : t->ActingBlob();
+    COINS_RETURN_IF_ERROR(m->net.Load(acting, t->spec().name));
     m->trained = t->updates() > 0;
     const std::string& dname = t->spec().detector;
     auto it = detectors_.find(t->spec().goal.factor);

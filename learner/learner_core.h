@@ -93,11 +93,15 @@ class LearnerCore {
     int64_t episodes = 0;                   // that evaluation's episodes, from Reset(seed) on
     uint64_t seed = 0;
     std::vector<uint8_t> acting;  // PolicyNet blob
+    // with skill_updates_in_task: the acting weights of levels 1..level-1 as they were then (the
+    // skills change under the task); empty when they did not train under it
+    std::vector<std::vector<uint8_t>> skills;
   };
   const std::optional<BestTask>& best_task() const { return best_task_; }
 
   // the acting models of levels 1..n as actors would hold them (evaluation); with best_task, the
-  // task level acts with the best task's weights (when there is one)
+  // task level acts with the best task's weights (when there is one), over the skills' weights
+  // it was evaluated with
   Result<std::unique_ptr<HierarchyModels>> Models(int levels, bool best_task = false) const;
   // the trainer of a level (null when none)
   PolicyTrainer* trainer(int level) const;
@@ -123,6 +127,8 @@ class LearnerCore {
   void PublishDetector(const std::string& target, Outputs* out);
   Result<bool> DetectWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
+  // skill_updates_in_task: updates of the skill under the task, published every publish_every
+  Status TrainSkillUnderTask(SampleSource* source, Outputs* out);
   Status Evaluate(uint64_t env_steps);
   // a periodic task evaluation `r` at env_steps: keeps the weights when they score above the best
   // (confirmed on eval_confirm_episodes new episodes when that is set)

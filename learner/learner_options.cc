@@ -143,6 +143,8 @@ void LearnerOptions::Visit(ConfigVisitor& v) {
         "new episodes that confirm a task evaluation beating the best before its weights are kept (0: none)");
   v.Bool("keep_best_task", keep_best_task,
          "the task's final policy is its best-evaluated weights (false: its newest weights)");
+  v.Int("skill_updates_in_task", skill_updates_in_task, 0, 16,
+        "updates of the skill under the task per task update while the task trains (0: the skill stays as learned)");
   v.Int("select_snapshots", select_snapshots, 0, 64,
         "snapshots of a training skill among which its final weights are chosen (0: keep the last)");
   v.Int("select_snapshot_every_steps", select_snapshot_every_steps, 1, int64_t(1) << 40,

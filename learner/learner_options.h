@@ -115,6 +115,11 @@ struct LearnerOptions {
   // ones in 11 of 15 runs over 200 episodes each (-45.9 against -51.3): a task whose evaluations
   // are noisy and improve slowly is better judged by its end than by its luckiest evaluation
   bool keep_best_task = true;
+  // while the task trains, the skill directly under it takes this many updates per task update
+  // (from its own stream's rows: the goals the task asks for, relabelled as in its own phase) and
+  // its new weights are published as they come; 0: a learned skill stays as its phase left it,
+  // the paper's chain. A kept best task keeps the weights of the skills it was evaluated with.
+  int64_t skill_updates_in_task = 0;
   // the weights a skill keeps when its training ends (learner/skill_selection.h): the best of
   // its newest select_snapshots snapshots (one every select_snapshot_every_steps env steps of its
   // training) and its final weights, each evaluated on select_goals goals; select_snapshots 0

@@ -268,6 +268,112 @@ TEST(LocalRun, AKeptTaskPolicyIsScoredByItsConfirmingEpisodes) {
   std::filesystem::remove_all(dir);
 }
 
+// a task over a briefly trained paddle skill (the paddle skill is level 1, the task level 2),
+// trained until `evals` periodic evaluations with skill_updates_in_task `k`
+void TrainTaskOverThePaddleSkill(LocalRun& r, size_t evals, std::vector<uint8_t>* skill_before,
+                                 int64_t* skill_updates_before) {
+  ASSERT_TRUE(r.Command(Command(1, "idle", 0, 6000)).ok());
+  ASSERT_TRUE(r.StepActors(100000).ok());
+  msg::ChainCommand detect = Command(2, "detect", 0, 6000);
+  detect.source("Action");
+  detect.targets({"Paddle"});
+  detect.round(1);
+  ASSERT_TRUE(r.Command(detect).ok());
+  ASSERT_TRUE(r.LearnerWork(1).ok());
+  ASSERT_EQ(r.scores().size(), 1u);
+  ASSERT_TRUE(r.scores()[0].scores()[0].pass());
+  msg::ChainCommand train = Command(3, "train-skill", 1, 6500);
+  train.steps_per_update(1.0);
+  train.links({LinkFrom(r.scores()[0].scores()[0])});
+  ASSERT_TRUE(r.Command(train).ok());
+  while (r.env_steps() < 9000) {
+    ASSERT_TRUE(r.StepActors(250).ok());
+    ASSERT_TRUE(r.LearnerWork(1000).ok());
+  }
+  msg::ChainCommand task = Command(4, "train-task", 2, 9500);
+  task.steps_per_update(4.0);
+  task.links(train.links());
+  ASSERT_TRUE(r.Command(task).ok());
+  while (r.learner().selection()) ASSERT_TRUE(r.LearnerWork(1).ok());
+  *skill_before = r.learner().trainer(1)->ActingBlob();
+  *skill_updates_before = r.learner().trainer(1)->updates();
+  std::vector<uint64_t> seen;
+  while (seen.size() < evals) {
+    ASSERT_TRUE(r.StepActors(250).ok());
+    ASSERT_TRUE(r.LearnerWork(100).ok());
+    const uint64_t at = r.learner().status().eval_env_steps();
+    if (at && (seen.empty() || seen.back() != at)) seen.push_back(at);
+  }
+}
+
+LocalRunOptions TaskOverSkillOptions(int64_t skill_updates_in_task) {
+  LocalRunOptions o = TaskEvalOptions();
+  o.learner.select_snapshots = 0;
+  o.learner.skill_updates_in_task = skill_updates_in_task;
+  return o;
+}
+
+// by default a learned skill stays as its phase left it while the task trains over it
+TEST(LocalRun, ALearnedSkillStaysAsItWasUnderTheTask) {
+  auto made = LocalRun::Create(TaskOverSkillOptions(0));
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  std::vector<uint8_t> before;
+  int64_t updates_before = 0;
+  ASSERT_NO_FATAL_FAILURE(TrainTaskOverThePaddleSkill(r, 3, &before, &updates_before));
+  EXPECT_GT(r.learner().trainer(2)->updates(), 200);
+  EXPECT_EQ(r.learner().trainer(1)->updates(), updates_before);
+  EXPECT_EQ(r.learner().trainer(1)->ActingBlob(), before);
+  ASSERT_TRUE(r.learner().best_task().has_value());
+  EXPECT_TRUE(r.learner().best_task()->skills.empty());
+}
+
+// with skill_updates_in_task the skill under the task takes that many updates per task update,
+// the actors get its new weights, and the kept task keeps the skill's weights it was evaluated
+// with, through a checkpoint (a damaged copy is refused, named)
+TEST(LocalRun, ASkillTrainingUnderTheTaskIsPublishedAndKeptWithTheBestTask) {
+  const LocalRunOptions o = TaskOverSkillOptions(2);
+  auto made = LocalRun::Create(o);
+  ASSERT_TRUE(made.ok()) << made.status().message();
+  LocalRun& r = **made;
+  std::vector<uint8_t> before;
+  int64_t updates_before = 0;
+  ASSERT_NO_FATAL_FAILURE(TrainTaskOverThePaddleSkill(r, 3, &before, &updates_before));
+  const int64_t task_updates = r.learner().trainer(2)->updates();
+  const int64_t skill_updates = r.learner().trainer(1)->updates() - updates_before;
+  EXPECT_GT(task_updates, 200);
+  EXPECT_GE(skill_updates, 2 * task_updates - 2);
+  EXPECT_LE(skill_updates, 2 * task_updates);
+  EXPECT_NE(r.learner().trainer(1)->ActingBlob(), before);
+  const std::string skill_name = r.learner().trainer(1)->spec().name;
+  bool published = false;
+  for (const msg::PolicyWeights& w : r.learner().Latest())
+    if (w.name() == skill_name) {
+      published = true;
+      EXPECT_NE(w.blob(), before) << "the actors get the skill's new weights";
+    }
+  EXPECT_TRUE(published);
+
+  const auto& kept = r.learner().best_task();
+  ASSERT_TRUE(kept.has_value());
+  ASSERT_EQ(kept->skills.size(), 1u);
+  EXPECT_NE(kept->skills[0], before) << "weights of an evaluation after the first skill updates";
+  std::filesystem::path dir;
+  std::unique_ptr<LearnerCore> loaded;
+  ASSERT_NO_FATAL_FAILURE(CheckpointAndReload(r, o, "coins-skill-under-task", &dir, &loaded));
+  ASSERT_EQ(loaded->best_task()->skills.size(), 1u);
+  EXPECT_EQ(loaded->best_task()->skills[0], kept->skills[0]);
+  EXPECT_EQ(loaded->trainer(1)->ActingBlob(), r.learner().trainer(1)->ActingBlob());
+  ASSERT_TRUE(loaded->Models(2, /*best_task=*/true).ok());
+
+  Damage(dir / "task-best-skill-1.bin", [](std::vector<char>& b) { b[b.size() / 3] ^= 0x21; });
+  LearnerCore damaged(r.spec(), o.learner, 9);
+  const Status s = damaged.LoadCheckpoint(dir.string());
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("task-best-skill-1.bin"), std::string::npos) << s.message();
+  std::filesystem::remove_all(dir);
+}
+
 // the paddle skill's training ends: its snapshots and its final weights are evaluated on the same
 // goals and the best kept, published and checkpointed. A checkpoint taken while training keeps
 // the snapshots; one taken mid-choice resumes the choice, which then makes the same choice.

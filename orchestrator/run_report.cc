@@ -405,9 +405,10 @@ std::string KeptTaskLine(const json& k) {
   const int64_t episodes = k.value("episodes", int64_t(0));  // 0: a checkpoint of an older version
   return fmt::format(
       "  task weights kept: of {} env steps, return {:.2f} +- {:.2f}{} (the final policy, `coins "
-      "eval` acts with them)\n",
+      "eval` acts with them{})\n",
       Short(double(k.value("env_steps", uint64_t(0)))), k.value("return_mean", 0.0), k.value("return_sd", 0.0),
-      episodes > 0 ? fmt::format(" over {} episodes", episodes) : "");
+      episodes > 0 ? fmt::format(" over {} episodes", episodes) : "",
+      k.contains("skill_files") ? ", over the skills' weights of that evaluation: they trained under the task" : "");
 }
 // the best of a series of evaluations (EvalMilestones; `best_is`: what the best one is, or "") and
 // when each reported return was first reached

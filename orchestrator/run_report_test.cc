@@ -351,6 +351,11 @@ TEST(RunReport, TheSummarySaysWhichWeightsEachSkillAndTheTaskKept) {
   EXPECT_NE(text.find(task_line), std::string::npos) << text;
   EXPECT_NE(text.find("best of 2 task evaluations: 93.00 +- 5.00 at 600.0k env steps (2000 s)\n"), std::string::npos)
       << "the best evaluation is not called the final policy when the kept weights are another's: " << text;
+  summary["kept_task"]["skill_files"] = {"task-best-skill-1.bin"};  // learner.skill_updates_in_task
+  EXPECT_NE(FormatSummary(summary).find("acts with them, over the skills' weights of that evaluation: they trained "
+                                        "under the task)\n"),
+            std::string::npos)
+      << FormatSummary(summary);
   summary["kept_task"] = {{"newest", true}};
   const std::string newest = FormatSummary(summary);
   EXPECT_NE(newest.find("  task weights kept: the newest (the final policy; learner.keep_best_task false)\n"),

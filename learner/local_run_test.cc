@@ -268,10 +268,9 @@ TEST(LocalRun, AKeptTaskPolicyIsScoredByItsConfirmingEpisodes) {
   std::filesystem::remove_all(dir);
 }
 
-// a task over a briefly trained paddle skill (the paddle skill is level 1, the task level 2),
-// trained until `evals` periodic evaluations with skill_updates_in_task `k`
-void TrainTaskOverThePaddleSkill(LocalRun& r, size_t evals, std::vector<uint8_t>* skill_before,
-                                 int64_t* skill_updates_before) {
+// 6000 random steps, a detect round that accepts Action -> Paddle, and the paddle skill trained
+// (one update per env step from 6500) until `until` env steps; `train` is its command (seq 3)
+void TrainThePaddleSkill(LocalRun& r, uint64_t until, msg::ChainCommand* train) {
   ASSERT_TRUE(r.Command(Command(1, "idle", 0, 6000)).ok());
   ASSERT_TRUE(r.StepActors(100000).ok());
   msg::ChainCommand detect = Command(2, "detect", 0, 6000);
@@ -282,14 +281,22 @@ void TrainTaskOverThePaddleSkill(LocalRun& r, size_t evals, std::vector<uint8_t>
   ASSERT_TRUE(r.LearnerWork(1).ok());
   ASSERT_EQ(r.scores().size(), 1u);
   ASSERT_TRUE(r.scores()[0].scores()[0].pass());
-  msg::ChainCommand train = Command(3, "train-skill", 1, 6500);
-  train.steps_per_update(1.0);
-  train.links({LinkFrom(r.scores()[0].scores()[0])});
-  ASSERT_TRUE(r.Command(train).ok());
-  while (r.env_steps() < 9000) {
+  *train = Command(3, "train-skill", 1, 6500);
+  train->steps_per_update(1.0);
+  train->links({LinkFrom(r.scores()[0].scores()[0])});
+  ASSERT_TRUE(r.Command(*train).ok());
+  while (r.env_steps() < until) {
     ASSERT_TRUE(r.StepActors(250).ok());
     ASSERT_TRUE(r.LearnerWork(1000).ok());
   }
+}
+
+// a task over a briefly trained paddle skill (the paddle skill is level 1, the task level 2),
+// trained until `evals` periodic evaluations; the skill's weights and updates when the task started
+void TrainTaskOverThePaddleSkill(LocalRun& r, size_t evals, std::vector<uint8_t>* skill_before,
+                                 int64_t* skill_updates_before) {
+  msg::ChainCommand train;
+  ASSERT_NO_FATAL_FAILURE(TrainThePaddleSkill(r, 9000, &train));
   msg::ChainCommand task = Command(4, "train-task", 2, 9500);
   task.steps_per_update(4.0);
   task.links(train.links());
@@ -387,24 +394,8 @@ TEST(LocalRun, AFinishedSkillKeepsTheBestOfItsSnapshotsAndAResumedChoiceMakesThe
   auto made = LocalRun::Create(o);
   ASSERT_TRUE(made.ok()) << made.status().message();
   LocalRun& r = **made;
-  ASSERT_TRUE(r.Command(Command(1, "idle", 0, 6000)).ok());
-  ASSERT_TRUE(r.StepActors(100000).ok());
-  msg::ChainCommand detect = Command(2, "detect", 0, 6000);
-  detect.source("Action");
-  detect.targets({"Paddle"});
-  detect.round(1);
-  ASSERT_TRUE(r.Command(detect).ok());
-  ASSERT_TRUE(r.LearnerWork(1).ok());
-  ASSERT_EQ(r.scores().size(), 1u);
-  ASSERT_TRUE(r.scores()[0].scores()[0].pass());
-  msg::ChainCommand train = Command(3, "train-skill", 1, 6500);
-  train.steps_per_update(1.0);
-  train.links({LinkFrom(r.scores()[0].scores()[0])});
-  ASSERT_TRUE(r.Command(train).ok());
-  while (r.env_steps() < 14000) {
-    ASSERT_TRUE(r.StepActors(250).ok());
-    ASSERT_TRUE(r.LearnerWork(1000).ok());
-  }
+  msg::ChainCommand train;
+  ASSERT_NO_FATAL_FAILURE(TrainThePaddleSkill(r, 14000, &train));
   const SkillSnapshots& snaps = r.learner().snapshots();
   ASSERT_EQ(snaps.all().size(), 3u) << "one every 1500 env steps from 6000, the newest 3";
   EXPECT_EQ(snaps.level(), 1);

@@ -401,6 +401,13 @@ std::vector<msg::PolicyWeights> LearnerCore::Latest() const {
   return all;
 }
 
+const std::vector<uint8_t>* LearnerCore::KeptActing(int level) const {
+  if (!best_task_) return nullptr;
+  if (level == best_task_->level) return &best_task_->acting;
+  if (level < best_task_->level && !best_task_->skills.empty()) return &best_task_->skills[size_t(level) - 1];
+  return nullptr;
+}
+
 Result<std::unique_ptr<HierarchyModels>> LearnerCore::Models(int levels, bool best_task) const {
   auto models = std::make_unique<HierarchyModels>();
   for (int L = 1; L <= levels; ++L) {
@@ -410,12 +417,10 @@ Result<std::unique_ptr<HierarchyModels>> LearnerCore::Models(int levels, bool be
     auto net = policy::PolicyNet::Create(t->spec());
     if (!net.ok()) return net.status();
     m->net = std::move(*net);
-    const bool best = best_task && best_task_ && best_task_->level == L;
-    const bool under_best = best_task && best_task_ && L < best_task_->level && !best_task_->skills.empty();
-    const std::vector<uint8_t> acting = best         ? best_task_->acting
-                                        : under_best ? best_task_->skills[size_t(L) - 1]
-                                                     : t->ActingBlob();
-    COINS_RETURN_IF_ERROR(m->net.Load(acting, t->spec().name));
+    const std::vector<uint8_t>* kept = best_task ? KeptActing(L) : nullptr;
+    std::vector<uint8_t> newest;
+    if (!kept) newest = t->ActingBlob();
+    COINS_RETURN_IF_ERROR(m->net.Load(kept ? *kept : newest, t->spec().name));
     m->trained = t->updates() > 0;
     const std::string& dname = t->spec().detector;
     auto it = detectors_.find(t->spec().goal.factor);

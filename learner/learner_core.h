@@ -129,6 +129,9 @@ class LearnerCore {
   Result<bool> TrainWork(SampleSource* source, uint64_t env_steps, Outputs* out);
   // skill_updates_in_task: updates of the skill under the task, published every publish_every
   Status TrainSkillUnderTask(SampleSource* source, Outputs* out);
+  // the weights a level acts with in the kept best task's models (the task's, or a skill's it was
+  // evaluated with); null when there is no kept task or the level keeps no weights of its own there
+  const std::vector<uint8_t>* KeptActing(int level) const;
   Status Evaluate(uint64_t env_steps);
   // a periodic task evaluation `r` at env_steps: keeps the weights when they score above the best
   // (confirmed on eval_confirm_episodes new episodes when that is set)

@@ -259,6 +259,11 @@ Status LearnerCore::KeepSkillsFor(const envs::EnvSpec& target, const std::vector
     COINS_RETURN_IF_ERROR(FitDetector(d->second.spec, env_, target).WithContext(what));
     kept[link.target()] = std::move(d->second);
   }
+  // skills that trained under the task (skill_updates_in_task) are handed on as the kept best
+  // task was evaluated over them: the skills `coins eval` plays the run's final policy with
+  for (int L = 1; best_task_ && L <= int(links.size()) && L < best_task_->level; ++L)
+    if (const std::vector<uint8_t>* acting = KeptActing(L))
+      COINS_RETURN_IF_ERROR(trainer(L)->LoadActing(*acting).WithContext("the kept task's skill weights"));
   for (auto it = trainers_.begin(); it != trainers_.end();)
     it = it->first > int(links.size()) ? trainers_.erase(it) : std::next(it);
   detectors_ = std::move(kept);

@@ -74,7 +74,8 @@ class LearnerCore {
   // transfer (learner/transfer_checkpoint.h): after LoadCheckpoint, keeps only the skills of
   // `links` (levels 1..links.size()) and their link detectors, each checked to be exactly what
   // those links build in `target` (the transfer run's learner then takes them as they are), and
-  // forgets the task level, the job bookkeeping and the evaluation. Errors name the level.
+  // forgets the task level, the job bookkeeping and the evaluation. A skill that trained under the
+  // task keeps the acting weights the kept best task was evaluated over. Errors name the level.
   Status KeepSkillsFor(const envs::EnvSpec& target, const std::vector<msg::LinkSpec>& links);
   // fine-tuning (a run without a chain): after LoadCheckpoint, keeps only the task over primitive
   // actions, re-specified for `target` with its weights and optimiser state (a pair network over

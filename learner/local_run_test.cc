@@ -294,12 +294,13 @@ void TrainThePaddleSkill(LocalRun& r, uint64_t until, msg::ChainCommand* train) 
 // a task over a briefly trained paddle skill (the paddle skill is level 1, the task level 2),
 // trained until `evals` periodic evaluations; the skill's weights and updates when the task started
 void TrainTaskOverThePaddleSkill(LocalRun& r, size_t evals, std::vector<uint8_t>* skill_before,
-                                 int64_t* skill_updates_before) {
+                                 int64_t* skill_updates_before, std::vector<msg::LinkSpec>* links = nullptr) {
   msg::ChainCommand train;
   ASSERT_NO_FATAL_FAILURE(TrainThePaddleSkill(r, 9000, &train));
   msg::ChainCommand task = Command(4, "train-task", 2, 9500);
   task.steps_per_update(4.0);
   task.links(train.links());
+  if (links) *links = train.links();
   ASSERT_TRUE(r.Command(task).ok());
   while (r.learner().selection()) ASSERT_TRUE(r.LearnerWork(1).ok());
   *skill_before = r.learner().trainer(1)->ActingBlob();
@@ -337,7 +338,7 @@ TEST(LocalRun, ALearnedSkillStaysAsItWasUnderTheTask) {
 
 // with skill_updates_in_task the skill under the task takes that many updates per task update,
 // the actors get its new weights, and the kept task keeps the skill's weights it was evaluated
-// with, through a checkpoint (a damaged copy is refused, named)
+// with, through a checkpoint (a damaged copy is refused, named) and into a transfer
 TEST(LocalRun, ASkillTrainingUnderTheTaskIsPublishedAndKeptWithTheBestTask) {
   const LocalRunOptions o = TaskOverSkillOptions(2);
   auto made = LocalRun::Create(o);
@@ -345,7 +346,8 @@ TEST(LocalRun, ASkillTrainingUnderTheTaskIsPublishedAndKeptWithTheBestTask) {
   LocalRun& r = **made;
   std::vector<uint8_t> before;
   int64_t updates_before = 0;
-  ASSERT_NO_FATAL_FAILURE(TrainTaskOverThePaddleSkill(r, 3, &before, &updates_before));
+  std::vector<msg::LinkSpec> links;
+  ASSERT_NO_FATAL_FAILURE(TrainTaskOverThePaddleSkill(r, 3, &before, &updates_before, &links));
   const int64_t task_updates = r.learner().trainer(2)->updates();
   const int64_t skill_updates = r.learner().trainer(1)->updates() - updates_before;
   EXPECT_GT(task_updates, 200);
@@ -372,6 +374,11 @@ TEST(LocalRun, ASkillTrainingUnderTheTaskIsPublishedAndKeptWithTheBestTask) {
   EXPECT_EQ(loaded->best_task()->skills[0], kept->skills[0]);
   EXPECT_EQ(loaded->trainer(1)->ActingBlob(), r.learner().trainer(1)->ActingBlob());
   ASSERT_TRUE(loaded->Models(2, /*best_task=*/true).ok());
+
+  // a transfer from this run starts from the skill the kept task was evaluated over, not the newest
+  ASSERT_NE(loaded->trainer(1)->ActingBlob(), kept->skills[0]) << "the skill trained on after the best evaluation";
+  ASSERT_TRUE(loaded->KeepSkillsFor(r.spec(), links).ok());
+  EXPECT_EQ(loaded->trainer(1)->ActingBlob(), kept->skills[0]);
 
   Damage(dir / "task-best-skill-1.bin", [](std::vector<char>& b) { b[b.size() / 3] ^= 0x21; });
   LearnerCore damaged(r.spec(), o.learner, 9);

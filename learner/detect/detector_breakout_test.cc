@@ -62,8 +62,8 @@ TEST(BreakoutDetector, ActionPaddlePassesActionBallAndBlockFail) {
 TEST(BreakoutDetector, DetectionsNoMoreThanChanceScoreZero) {
   auto env = envs::MakeEnv("breakout");
   const envs::EnvSpec& spec = (*env)->spec();
-  const TransitionSet data = Collect("breakout", "random", 20000, 1);
-  const TransitionSet train = data.Slice(0, 16000), scored = data.Slice(16000, 20000);
+  const TransitionSet data = Collect("breakout", "random", 40000, 1);
+  const TransitionSet train = data.Slice(0, 16000), scored = data.Slice(16000, 40000);
   DetectorOptions o = FastOptions();
   const PairScores paddle = TrainAndScore(spec, train, scored, "Action", "Paddle", o);
   ASSERT_TRUE(paddle.pass);
@@ -80,12 +80,15 @@ TEST(BreakoutDetector, DetectionsNoMoreThanChanceScoreZero) {
   EXPECT_NE(strict.note.find("detections, not above"), std::string::npos) << strict.note;
   EXPECT_NE(strict.note.find("(chance)"), std::string::npos) << strict.note;
 
-  // Action->Ball, counted from one detection: no more than chance, so no score; with the check
-  // off (ratio 0) the same detection scores
+  // Action->Ball: its detections are no more than chance, so no score; with the check off (ratio
+  // 0) the same detections score. A looser passive threshold gives it tens of detections (43 and
+  // 52 on 24,000 states of two data seeds, against 254 and 636 by chance): with the default there
+  // are 0 to 9, too few to count on from one CPU's floating point to another's
   o = FastOptions();
   o.min_interactions = 1;
+  o.eps_pas = 3.0f;
   const PairScores ball = TrainAndScore(spec, train, scored, "Action", "Ball", o);
-  ASSERT_GE(ball.interactions, 1);
+  ASSERT_GE(ball.interactions, 10);
   ASSERT_LE(double(ball.interactions), o.chance_ratio * ball.chance_interactions);
   EXPECT_EQ(ball.score, 0.0);
   EXPECT_NE(ball.note.find("(chance)"), std::string::npos) << ball.note;

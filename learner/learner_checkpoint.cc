@@ -69,6 +69,7 @@ Status LearnerCore::SaveCheckpoint(const std::string& dir, uint64_t epoch, uint6
                              {"spec", ToJson(t->spec())},
                              {"counters", st.counters},
                              {"file", file},
+                             {"acting_average", t->acting_average()},
                              {"acting_checksum", acting}});
   }
   if (best_task_) {
@@ -118,7 +119,11 @@ Status LearnerCore::LoadCheckpoint(const std::string& dir) {
       auto spec = policy::LevelSpecFromJson(tj.at("spec"));
       if (!spec.ok()) return spec.status().WithContext(dir);
       const int level = tj.at("level").get<int>();
-      auto t = PolicyTrainer::Create(*spec, Group(level, spec->is_task()), seed_ + 1000 * uint64_t(level));
+      // the state file holds what the trainer that wrote it kept (a running average of its acting
+      // weights or not), whatever the options of the process reading it (coins eval, transfer)
+      LevelTrainOptions options = Group(level, spec->is_task());
+      options.acting_average = tj.value("acting_average", 0.0);
+      auto t = PolicyTrainer::Create(*spec, options, seed_ + 1000 * uint64_t(level));
       if (!t.ok()) return t.status().WithContext(dir);
       auto blob = ReadFileBytes(dir + "/" + tj.at("file").get<std::string>());
       if (!blob.ok()) return blob.status();

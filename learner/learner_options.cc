@@ -39,6 +39,8 @@ void LevelTrainOptions::Visit(ConfigVisitor& v, const std::string& p) {
     v.Float(p + "goal_sample_ratio", goal_sample_ratio, 0, 10,
             "random continuous goals within this fraction of the range around the target (0: anywhere)");
   v.Int(p + "publish_every", publish_every, 1, 1 << 24, "updates between weight publications");
+  v.Float(p + "acting_average", acting_average, 0, 1,
+          "acting weights: a running average of the online weights with this Polyak factor per update (0: the newest)");
   v.String(p + "interaction_ends_goal", interaction_ends_goal, {"rare", "never"},
            "rare: a rare link's interaction ends its goal (a bounce) | never: reached or timed out (a push)");
   if (p != "task_")

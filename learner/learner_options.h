@@ -49,6 +49,9 @@ struct LevelTrainOptions {
   // the goal range around the target's value (0: anywhere in the goal space)
   double goal_sample_ratio = 0;
   int64_t publish_every = 50;  // updates between weight publications
+  // the weights the level acts with (published, snapshotted, evaluated): 0 the newest online
+  // weights; a > 0 a running average of them, avg += a * (online - avg) after every update
+  double acting_average = 0;
   // a goal of a link whose interactions are rare ends at any detected interaction ("rare": a
   // bounce decides the ball's angle, the attempt is over), or only when reached or timed out
   // ("never": a push is one of many that bring the block to its goal)

@@ -338,9 +338,12 @@ TEST(LocalRun, ALearnedSkillStaysAsItWasUnderTheTask) {
 
 // with skill_updates_in_task the skill under the task takes that many updates per task update,
 // the actors get its new weights, and the kept task keeps the skill's weights it was evaluated
-// with, through a checkpoint (a damaged copy is refused, named) and into a transfer
+// with, through a checkpoint (a damaged copy is refused, named) and into a transfer. The skill
+// acts with a running average of its weights, which a checkpoint read with other options (coins
+// eval's) still acts with.
 TEST(LocalRun, ASkillTrainingUnderTheTaskIsPublishedAndKeptWithTheBestTask) {
-  const LocalRunOptions o = TaskOverSkillOptions(2);
+  LocalRunOptions o = TaskOverSkillOptions(2);
+  o.learner.primitive.acting_average = 0.05;
   auto made = LocalRun::Create(o);
   ASSERT_TRUE(made.ok()) << made.status().message();
   LocalRun& r = **made;
@@ -374,6 +377,10 @@ TEST(LocalRun, ASkillTrainingUnderTheTaskIsPublishedAndKeptWithTheBestTask) {
   EXPECT_EQ(loaded->best_task()->skills[0], kept->skills[0]);
   EXPECT_EQ(loaded->trainer(1)->ActingBlob(), r.learner().trainer(1)->ActingBlob());
   ASSERT_TRUE(loaded->Models(2, /*best_task=*/true).ok());
+  LearnerCore as_eval(r.spec(), LearnerOptions{}, 9);  // the checkpoint says its skill acts with an average
+  ASSERT_TRUE(as_eval.LoadCheckpoint(dir.string()).ok());
+  EXPECT_EQ(as_eval.trainer(1)->acting_average(), 0.05);
+  EXPECT_EQ(as_eval.trainer(1)->ActingBlob(), r.learner().trainer(1)->ActingBlob());
 
   // a transfer from this run starts from the skill the kept task was evaluated over, not the newest
   ASSERT_NE(loaded->trainer(1)->ActingBlob(), kept->skills[0]) << "the skill trained on after the best evaluation";

@@ -102,6 +102,8 @@ Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::Level
   if (!net.ok()) return net.status();
   if (!net->params().SameShape(t->acting_params()))
     return Errorf("{}: the trained network does not match the acting network", spec.name);
+  if (t->averages()) t->average_ = t->acting_params();
+  t->algorithm_sets_ = t->ExportState().sets.size() - (t->averages() ? 1 : 0);
   return t;
 }
 
@@ -115,21 +117,33 @@ nn::ParamSet& PolicyTrainer::acting_params() {
   return dqn_ ? dqn_->online().params() : sac_ ? sac_->actor().params() : ddpg_->actor().params();
 }
 
-std::vector<uint8_t> PolicyTrainer::ActingBlob() const { return nn::ToBlob(acting_params()); }
+std::vector<uint8_t> PolicyTrainer::ActingBlob() const { return nn::ToBlob(averages() ? average_ : acting_params()); }
 
 Status PolicyTrainer::LoadActing(std::span<const uint8_t> blob) {
   nn::ParamSet loaded = acting_params();
   COINS_RETURN_IF_ERROR(nn::FromBlob(blob, &loaded, spec_.name + " acting weights"));
   nn::HardUpdate(loaded, &acting_params());  // in place: the networks keep their views
+  if (averages()) nn::HardUpdate(loaded, &average_);
   return Status::Ok();
 }
 
 rl::AlgorithmState PolicyTrainer::ExportState() const {
-  return dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();
+  rl::AlgorithmState state = dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();
+  if (averages()) state.sets.push_back(average_);
+  return state;
 }
 
 Status PolicyTrainer::ImportState(const rl::AlgorithmState& state) {
-  return dqn_ ? dqn_->ImportState(state) : sac_ ? sac_->ImportState(state) : ddpg_->ImportState(state);
+  COINS_RETURN_IF_ERROR(dqn_ ? dqn_->ImportState(state) : sac_ ? sac_->ImportState(state) : ddpg_->ImportState(state));
+  if (!averages()) return Status::Ok();
+  // a state written without the average (an earlier run, or averaging newly turned on) starts
+  // it at the online weights
+  size_t next = algorithm_sets_;
+  if (state.sets.size() <= next) {
+    nn::HardUpdate(acting_params(), &average_);
+    return Status::Ok();
+  }
+  return rl::RestoreParams(state, &next, &average_).WithContext(spec_.name + " acting average");
 }
 
 void PolicyTrainer::Observations(const SampleColumns& c, bool next, Eigen::MatrixXf* obs) {
@@ -173,6 +187,7 @@ Result<TrainStep> PolicyTrainer::Update(SampleSource* source) {
     step.loss = s.critic_loss;
   }
   if (options_.prioritized) source->UpdatePriorities(batch_.keys, {priorities_.data(), size_t(priorities_.size())});
+  if (averages()) nn::SoftUpdate(acting_params(), float(options_.acting_average), &average_);
   return step;
 }
 

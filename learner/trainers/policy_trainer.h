@@ -4,7 +4,9 @@
 // observation reads, with the level's goal rewards computed and hindsight relabelling done at
 // sample time by the shards (idl/sampling.idl); builds observations exactly as actors do
 // (common/policy/policy_net.h); and takes one dqn, ddpg or sac step per Update. The acting network's
-// weights (ActingBlob) load into a PolicyNet of the same spec. One thread at a time.
+// weights (ActingBlob) load into a PolicyNet of the same spec: the algorithm's online acting
+// network, or with options.acting_average > 0 a running average of it updated after every step
+// (kept in ExportState after the algorithm's own sets). One thread at a time.
 #pragma once
 
 #include <cstdint>
@@ -45,11 +47,13 @@ class PolicyTrainer {
   // the batch of the last Update (policy versions, flags, ...)
   const SampleColumns& last() const { return columns_; }
   int64_t updates() const;
-  // weights of the acting network (PolicyNet layout)
+  // the Polyak factor of the acting weights' running average (0: the online weights)
+  double acting_average() const { return options_.acting_average; }
+  // weights the level acts with (PolicyNet layout): the online network's, or their average
   std::vector<uint8_t> ActingBlob() const;
-  // replaces the acting network's weights (a blob of ActingBlob's layout; a damaged or foreign
-  // one is refused and nothing changes). The algorithm's other networks and optimiser state stay
-  // as they are: for a skill whose training has ended (learner/skill_selection.h).
+  // replaces the acting network's weights, and their average (a blob of ActingBlob's layout; a
+  // damaged or foreign one is refused and nothing changes). The algorithm's other networks and
+  // optimiser state stay as they are: for a skill whose training has ended (learner/skill_selection.h).
   Status LoadActing(std::span<const uint8_t> blob);
   rl::AlgorithmState ExportState() const;
   Status ImportState(const rl::AlgorithmState& state);
@@ -60,8 +64,9 @@ class PolicyTrainer {
  private:
   PolicyTrainer(policy::LevelSpec spec, LevelTrainOptions options);
   void ToBatch(const SampleColumns& c);
-  const nn::ParamSet& acting_params() const;
+  const nn::ParamSet& acting_params() const;  // the algorithm's online acting network
   nn::ParamSet& acting_params();
+  bool averages() const { return options_.acting_average > 0; }
 
   policy::LevelSpec spec_;
   LevelTrainOptions options_;
@@ -69,6 +74,8 @@ class PolicyTrainer {
   std::unique_ptr<rl::Dqn> dqn_;
   std::unique_ptr<rl::Ddpg> ddpg_;
   std::unique_ptr<rl::Sac> sac_;
+  nn::ParamSet average_;       // with averages(): the acting weights
+  size_t algorithm_sets_ = 0;  // sets of the algorithm's own state (the average follows them)
   SampleColumns columns_;
   rl::Batch batch_;
   Eigen::MatrixXf goals_, priorities_;

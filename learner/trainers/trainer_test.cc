@@ -1,6 +1,9 @@
 // Level specs built from links, and trainers whose acting weights actors can load.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <random>
+
 #include <nlohmann/json.hpp>
 
 #include "actors/envs/env.h"
@@ -119,6 +122,68 @@ TEST(PolicyTrainer, ActingWeightsLoadIntoTheActorsNetwork) {
     EXPECT_TRUE(q.require_interaction && q.terminate_on_interaction);
     EXPECT_EQ(q.goal_mask, (std::vector<float>{0, 0, 1, 1, 0}));
   }
+}
+
+// random rows of the shape a spec asks for: the features it reads, one action, the target factor as goal
+class RandomRows final : public SampleSource {
+ public:
+  Status Sample(const SampleSpec& spec, int batch, SampleColumns* out) override {
+    out->Resize(uint32_t(batch), uint32_t(spec.features.size()), 1, 5);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (auto* column : {&out->state, &out->next_state, &out->goal, &out->reward})
+      for (float& x : *column) x = u(rng_);
+    for (float& a : out->action) a = float(rng_() % 7);
+    std::fill(out->discount.begin(), out->discount.end(), 0.9f);
+    std::fill(out->weight.begin(), out->weight.end(), 1.0f);
+    return Status::Ok();
+  }
+  void UpdatePriorities(std::span<const uint64_t>, std::span<const float>) override {}
+  void UpdateWeights(std::span<const uint64_t>, std::span<const float>) override {}
+
+ private:
+  std::mt19937_64 rng_{5};
+};
+
+// learner.*_acting_average: the level acts with a running average of its online weights, which
+// checkpoints keep and a kept snapshot replaces
+TEST(PolicyTrainer, ActsWithTheRunningAverageOfItsWeights) {
+  Breakout b;
+  LearnerOptions o;
+  auto paddle = BuildSkillSpec(b.spec, b.paddle, 1, nullptr, o.primitive);
+  auto spec = BuildSkillSpec(b.spec, b.ball, 2, &*paddle, o.skill);
+  ASSERT_TRUE(spec.ok()) << spec.status().message();
+  LevelTrainOptions g = o.skill;
+  g.acting_average = 0.25;
+  auto averaged = PolicyTrainer::Create(*spec, g, 3);
+  auto plain = PolicyTrainer::Create(*spec, o.skill, 3);  // the same seed: the same online weights
+  ASSERT_TRUE(averaged.ok() && plain.ok());
+  ASSERT_EQ((*averaged)->ActingBlob(), (*plain)->ActingBlob());  // the average starts at the weights
+  RandomRows rows_a, rows_b;
+  auto as_params = [&](const std::vector<uint8_t>& blob) {
+    auto net = policy::PolicyNet::Create(*spec);
+    EXPECT_TRUE(net->Load(blob, "acting").ok());
+    return net->params().values;
+  };
+  Eigen::VectorXf expected = as_params((*plain)->ActingBlob());
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE((*averaged)->Update(&rows_a).ok());
+    ASSERT_TRUE((*plain)->Update(&rows_b).ok());  // the same rows: the same online weights
+    expected += 0.25f * (as_params((*plain)->ActingBlob()) - expected);
+  }
+  const Eigen::VectorXf acting = as_params((*averaged)->ActingBlob());
+  EXPECT_GT((acting - as_params((*plain)->ActingBlob())).norm(), 1e-4f);  // not the newest weights
+  EXPECT_LT((acting - expected).norm(), 1e-4f * (1.0f + expected.norm()));
+  // a checkpoint round trip keeps the average; a state without it starts it at the online weights
+  rl::AlgorithmState st = (*averaged)->ExportState();
+  auto resumed = PolicyTrainer::Create(*spec, g, 4);
+  ASSERT_TRUE((*resumed)->ImportState(st).ok());
+  EXPECT_EQ((*resumed)->ActingBlob(), (*averaged)->ActingBlob());
+  auto from_plain = PolicyTrainer::Create(*spec, g, 4);
+  ASSERT_TRUE((*from_plain)->ImportState((*plain)->ExportState()).ok());
+  EXPECT_EQ((*from_plain)->ActingBlob(), (*plain)->ActingBlob());
+  // loading kept acting weights sets the average too
+  ASSERT_TRUE((*averaged)->LoadActing((*plain)->ActingBlob()).ok());
+  EXPECT_EQ((*averaged)->ActingBlob(), (*plain)->ActingBlob());
 }
 
 // learner.task_pair_hidden: the task's network is a pair network over the blocks; its weights fit

@@ -103,7 +103,7 @@ Result<std::unique_ptr<PolicyTrainer>> PolicyTrainer::Create(const policy::Level
   if (!net->params().SameShape(t->acting_params()))
     return Errorf("{}: the trained network does not match the acting network", spec.name);
   if (t->averages()) t->average_ = t->acting_params();
-  t->algorithm_sets_ = t->ExportState().sets.size() - (t->averages() ? 1 : 0);
+  t->algorithm_sets_ = t->ExportAlgorithmState().sets.size();
   return t;
 }
 
@@ -127,8 +127,12 @@ Status PolicyTrainer::LoadActing(std::span<const uint8_t> blob) {
   return Status::Ok();
 }
 
+rl::AlgorithmState PolicyTrainer::ExportAlgorithmState() const {
+  return dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();
+}
+
 rl::AlgorithmState PolicyTrainer::ExportState() const {
-  rl::AlgorithmState state = dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();
+  rl::AlgorithmState state = ExportAlgorithmState();
   if (averages()) state.sets.push_back(average_);
   return state;
 }

@@ -67,6 +67,7 @@ class PolicyTrainer {
   const nn::ParamSet& acting_params() const;  // the algorithm's online acting network
   nn::ParamSet& acting_params();
   bool averages() const { return options_.acting_average > 0; }
+  rl::AlgorithmState ExportAlgorithmState() const;  // the algorithm's own state, without the average
 
   policy::LevelSpec spec_;
   LevelTrainOptions options_;

@@ -16,6 +16,8 @@ const std::set<std::string> kSetByTheExample = {"run.steps",
                                                 "run.dir",
                                                 "run.report_returns",
                                                 "orchestrator.skill_max_steps",
+                                                "orchestrator.n_complete_goals",
+                                                "learner.skill_acting_average",
                                                 "learner.primitive_goal_sample_ratio",
                                                 "learner.skill_interaction_reward"};
 

@@ -131,6 +131,10 @@ rl::AlgorithmState PolicyTrainer::ExportAlgorithmState() const {
   return dqn_ ? dqn_->ExportState() : sac_ ? sac_->ExportState() : ddpg_->ExportState();
 }
 
+Status PolicyTrainer::ImportAlgorithmState(const rl::AlgorithmState& state) {
+  return dqn_ ? dqn_->ImportState(state) : sac_ ? sac_->ImportState(state) : ddpg_->ImportState(state);
+}
+
 rl::AlgorithmState PolicyTrainer::ExportState() const {
   rl::AlgorithmState state = ExportAlgorithmState();
   if (averages()) state.sets.push_back(average_);
@@ -138,7 +142,7 @@ rl::AlgorithmState PolicyTrainer::ExportState() const {
 }
 
 Status PolicyTrainer::ImportState(const rl::AlgorithmState& state) {
-  COINS_RETURN_IF_ERROR(dqn_ ? dqn_->ImportState(state) : sac_ ? sac_->ImportState(state) : ddpg_->ImportState(state));
+  COINS_RETURN_IF_ERROR(ImportAlgorithmState(state));
   if (!averages()) return Status::Ok();
   // a state written without the average (an earlier run, or averaging newly turned on) starts
   // it at the online weights

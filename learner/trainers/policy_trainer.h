@@ -67,7 +67,8 @@ class PolicyTrainer {
   const nn::ParamSet& acting_params() const;  // the algorithm's online acting network
   nn::ParamSet& acting_params();
   bool averages() const { return options_.acting_average > 0; }
-  rl::AlgorithmState ExportAlgorithmState() const;  // the algorithm's own state, without the average
+  rl::AlgorithmState ExportAlgorithmState() const;               // the algorithm's own state, without the average
+  Status ImportAlgorithmState(const rl::AlgorithmState& state);  // its sets first; later ones are left
 
   policy::LevelSpec spec_;
   LevelTrainOptions options_;
